@@ -1,0 +1,50 @@
+"""The ``ridsafe`` command line: one console script, one module per subcommand.
+
+Each subcommand module exposes ``register(subparsers) -> None``, which adds its parser and
+sets ``func`` (``Callable[[argparse.Namespace], int]``) as the parser default.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import sys
+from collections.abc import Sequence
+
+# Subcommand modules, in the order ``ridsafe --help`` lists them.
+_SUBCOMMAND_MODULES: tuple[str, ...] = (
+    "ridsafe.tools.sim_cmd",
+    "ridsafe.tools.demo_cmd",
+    "ridsafe.tools.odid_cmd",
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="ridsafe",
+        description="Spoofing-aware Remote ID trajectory planning for small drones.",
+    )
+    parser.add_argument(
+        "-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)"
+    )
+    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for module_name in _SUBCOMMAND_MODULES:
+        importlib.import_module(module_name).register(subparsers)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    level = {0: logging.WARNING, 1: logging.INFO}.get(args.verbose, logging.DEBUG)
+    logging.basicConfig(level=level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    if not hasattr(args, "func"):
+        parser.print_help()
+        return 2
+    result: int = args.func(args)
+    return result
+
+
+if __name__ == "__main__":
+    sys.exit(main())
