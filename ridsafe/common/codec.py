@@ -1,0 +1,890 @@
+"""The MAVLink codec: domain messages <-> MAVLink 2 bytes. The only module that knows scales.
+
+``MavlinkLink`` is one end of one MAVLink link, sans I/O: ``pack(message) -> bytes`` and
+``feed(bytes) -> list[Received]``. It numbers outgoing packets, signs them when a key is
+configured, and never raises on bad input: malformed frames, unknown message ids, values
+out of range and unsigned or wrongly signed packets are logged, counted in
+``LinkCounters`` and dropped, and parsing goes on with the next frame.
+
+Scales (common.xml): lat/lon degE7, altitudes mm (GLOBAL_POSITION_INT, HOME_POSITION),
+velocities cm/s, headings cdeg, times ms/us. Open Drone ID "unknown" sentinels map to None.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ridsafe.common import messages as m
+from ridsafe.common.dialect import ridsafe_v20 as mav
+from ridsafe.common.errors import WireError
+
+logger = logging.getLogger(__name__)
+
+DEG_E7 = 1e7
+ODID_UNKNOWN_DIRECTION_CDEG = 36100
+ODID_UNKNOWN_SPEED_H_CMS = 25500
+ODID_UNKNOWN_SPEED_V_CMS = 6300
+ODID_UNKNOWN_ALT_M = -1000.0
+ODID_UNKNOWN_TIMESTAMP_S = 0xFFFF
+ODID_ID_LEN = 20
+# Signing timestamps count 10 us units since 2015-01-01T00:00:00Z.
+SIGNING_EPOCH_UNIX_S = 1420070400
+
+
+@dataclass(frozen=True, slots=True)
+class Received:
+    """One accepted MAVLink message."""
+
+    src_system: int
+    src_component: int
+    message: m.Message
+    signed: bool
+
+
+@dataclass
+class LinkCounters:
+    """What a link accepted and what it dropped, by reason."""
+
+    accepted: int = 0
+    bad_data: int = 0
+    unknown_id: int = 0
+    unhandled: int = 0
+    invalid_value: int = 0
+    rejected_signature: int = 0
+    last_error: str = ""
+
+    @property
+    def dropped(self) -> int:
+        return self.bad_data + self.unknown_id + self.invalid_value + self.rejected_signature
+
+
+@dataclass(frozen=True)
+class SigningConfig:
+    """MAVLink 2 signing: 32-byte secret key and the first outgoing timestamp."""
+
+    key: bytes = field(repr=False)
+    initial_timestamp: int = 0
+    link_id: int = 0
+
+    def __post_init__(self) -> None:
+        if len(self.key) != 32:
+            raise ValueError(f"signing key must be 32 bytes, got {len(self.key)}")
+
+
+def signing_timestamp_from_unix(unix_s: float) -> int:
+    """MAVLink signing timestamp (10 us units since 2015) for a UNIX time."""
+    return max(0, int((unix_s - SIGNING_EPOCH_UNIX_S) * 100_000))
+
+
+def load_signing_key(path: str | Path) -> bytes:
+    """Read a signing key file: 64 hex characters, or a passphrase hashed with SHA-256
+    (the convention MAVProxy's ``signing setup`` uses)."""
+    text = Path(path).read_text(encoding="utf-8").strip()
+    if not text:
+        raise WireError(f"{path}: signing key file is empty")
+    try:
+        key = bytes.fromhex(text)
+    except ValueError:
+        key = b""
+    if len(key) == 32:
+        return key
+    return hashlib.sha256(text.encode("utf-8")).digest()
+
+
+# --- small conversion helpers -----------------------------------------------------------
+
+
+def _id20(raw: bytes) -> list[int]:
+    if len(raw) > ODID_ID_LEN:
+        raise WireError(f"id is {len(raw)} bytes, at most {ODID_ID_LEN} fit")
+    return list(raw.ljust(ODID_ID_LEN, b"\x00"))
+
+
+def _bytes(values: Any) -> bytes:
+    """A decoded uint8[20] id field as bytes without its NUL padding."""
+    raw = values.encode("latin-1") if isinstance(values, str) else bytes(values)
+    return raw.rstrip(b"\x00")
+
+
+def _check_lat_lon(lat_deg: float, lon_deg: float, what: str) -> None:
+    if not (abs(lat_deg) <= 90.0 and abs(lon_deg) <= 180.0):
+        raise WireError(f"{what}: latitude {lat_deg} / longitude {lon_deg} out of range")
+
+
+def _finite(what: str, *values: float) -> None:
+    for value in values:
+        if not math.isfinite(value):
+            raise WireError(f"{what}: non-finite value {value}")
+
+
+def _deg_e7(value_deg: float) -> int:
+    return round(value_deg * DEG_E7)
+
+
+def _or(value: float | None, unknown: float) -> float:
+    return unknown if value is None else value
+
+
+def _known(value: float, unknown: float) -> float | None:
+    return None if value == unknown else value
+
+
+def _vec(a: float, b: float, c: float) -> m.Vec3:
+    return (float(a), float(b), float(c))
+
+
+# --- standard messages ---------------------------------------------------------------------
+
+ToMav = Callable[[Any], Any]
+FromMav = Callable[[Any], m.Message]
+
+
+def _heartbeat_to(msg: m.Heartbeat) -> Any:
+    return mav.MAVLink_heartbeat_message(
+        msg.mav_type, msg.autopilot, msg.base_mode, msg.custom_mode, msg.system_status, 3
+    )
+
+
+def _heartbeat_from(raw: Any) -> m.Heartbeat:
+    return m.Heartbeat(raw.type, raw.autopilot, raw.base_mode, raw.custom_mode, raw.system_status)
+
+
+def _command_long_to(msg: m.CommandLong) -> Any:
+    return mav.MAVLink_command_long_message(
+        msg.target_system, msg.target_component, msg.command, msg.confirmation, *msg.params
+    )
+
+
+def _command_long_from(raw: Any) -> m.CommandLong:
+    params = (raw.param1, raw.param2, raw.param3, raw.param4, raw.param5, raw.param6, raw.param7)
+    return m.CommandLong(
+        raw.target_system, raw.target_component, raw.command, raw.confirmation, params
+    )
+
+
+def _command_ack_to(msg: m.CommandAck) -> Any:
+    return mav.MAVLink_command_ack_message(
+        msg.command,
+        msg.result,
+        msg.progress,
+        msg.result_param2,
+        msg.target_system,
+        msg.target_component,
+    )
+
+
+def _command_ack_from(raw: Any) -> m.CommandAck:
+    return m.CommandAck(
+        raw.command,
+        raw.result,
+        raw.target_system,
+        raw.target_component,
+        raw.progress,
+        raw.result_param2,
+    )
+
+
+def _set_mode_to(msg: m.SetMode) -> Any:
+    return mav.MAVLink_set_mode_message(msg.target_system, msg.base_mode, msg.custom_mode)
+
+
+def _set_mode_from(raw: Any) -> m.SetMode:
+    return m.SetMode(raw.target_system, raw.base_mode, raw.custom_mode)
+
+
+def _ms(t_s: float) -> int:
+    return round(t_s * 1000.0) & 0xFFFFFFFF
+
+
+def _spt_to(msg: m.SetPositionTargetLocalNed) -> Any:
+    return mav.MAVLink_set_position_target_local_ned_message(
+        _ms(msg.time_boot_s),
+        msg.target_system,
+        msg.target_component,
+        msg.coordinate_frame,
+        msg.type_mask,
+        *msg.p_ned_m,
+        *msg.v_ned_m_s,
+        *msg.a_ned_m_s2,
+        msg.yaw_rad,
+        msg.yaw_rate_rad_s,
+    )
+
+
+def _spt_from(raw: Any) -> m.SetPositionTargetLocalNed:
+    return m.SetPositionTargetLocalNed(
+        raw.time_boot_ms / 1000.0,
+        raw.target_system,
+        raw.target_component,
+        raw.coordinate_frame,
+        raw.type_mask,
+        _vec(raw.x, raw.y, raw.z),
+        _vec(raw.vx, raw.vy, raw.vz),
+        _vec(raw.afx, raw.afy, raw.afz),
+        raw.yaw,
+        raw.yaw_rate,
+    )
+
+
+def _cms(v_m_s: float) -> int:
+    return max(-32768, min(32767, round(v_m_s * 100.0)))
+
+
+def _gpi_to(msg: m.GlobalPositionInt) -> Any:
+    hdg = 65535 if msg.heading_deg is None else round(msg.heading_deg * 100.0) % 36000
+    return mav.MAVLink_global_position_int_message(
+        _ms(msg.time_boot_s),
+        _deg_e7(msg.lat_deg),
+        _deg_e7(msg.lon_deg),
+        round(msg.alt_msl_m * 1000.0),
+        round(msg.relative_alt_m * 1000.0),
+        *(_cms(v) for v in msg.v_ned_m_s),
+        hdg,
+    )
+
+
+def _gpi_from(raw: Any) -> m.GlobalPositionInt:
+    lat, lon = raw.lat / DEG_E7, raw.lon / DEG_E7
+    _check_lat_lon(lat, lon, "GLOBAL_POSITION_INT")
+    return m.GlobalPositionInt(
+        raw.time_boot_ms / 1000.0,
+        lat,
+        lon,
+        raw.alt / 1000.0,
+        raw.relative_alt / 1000.0,
+        _vec(raw.vx / 100.0, raw.vy / 100.0, raw.vz / 100.0),
+        None if raw.hdg == 65535 else raw.hdg / 100.0,
+    )
+
+
+def _lpn_to(msg: m.LocalPositionNed) -> Any:
+    return mav.MAVLink_local_position_ned_message(
+        _ms(msg.time_boot_s), *msg.p_ned_m, *msg.v_ned_m_s
+    )
+
+
+def _lpn_from(raw: Any) -> m.LocalPositionNed:
+    _finite("LOCAL_POSITION_NED", raw.x, raw.y, raw.z, raw.vx, raw.vy, raw.vz)
+    return m.LocalPositionNed(
+        raw.time_boot_ms / 1000.0, _vec(raw.x, raw.y, raw.z), _vec(raw.vx, raw.vy, raw.vz)
+    )
+
+
+def _attitude_to(msg: m.Attitude) -> Any:
+    return mav.MAVLink_attitude_message(
+        _ms(msg.time_boot_s), msg.roll_rad, msg.pitch_rad, msg.yaw_rad, *msg.rates_frd_rad_s
+    )
+
+
+def _attitude_from(raw: Any) -> m.Attitude:
+    _finite("ATTITUDE", raw.roll, raw.pitch, raw.yaw)
+    return m.Attitude(
+        raw.time_boot_ms / 1000.0,
+        raw.roll,
+        raw.pitch,
+        raw.yaw,
+        _vec(raw.rollspeed, raw.pitchspeed, raw.yawspeed),
+    )
+
+
+def _sys_status_to(msg: m.SysStatus) -> Any:
+    volt_mv = 65535 if msg.battery_voltage_v is None else round(msg.battery_voltage_v * 1e3)
+    remaining = -1 if msg.battery_remaining_pct is None else msg.battery_remaining_pct
+    return mav.MAVLink_sys_status_message(
+        msg.sensors_present,
+        msg.sensors_enabled,
+        msg.sensors_health,
+        round(msg.load_pct * 10.0),
+        volt_mv,
+        -1,
+        remaining,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+    )
+
+
+def _sys_status_from(raw: Any) -> m.SysStatus:
+    return m.SysStatus(
+        raw.onboard_control_sensors_present,
+        raw.onboard_control_sensors_enabled,
+        raw.onboard_control_sensors_health,
+        raw.load / 10.0,
+        None if raw.voltage_battery == 65535 else raw.voltage_battery / 1e3,
+        None if raw.battery_remaining < 0 else raw.battery_remaining,
+    )
+
+
+def _home_to(msg: m.HomePosition) -> Any:
+    return mav.MAVLink_home_position_message(
+        _deg_e7(msg.lat_deg),
+        _deg_e7(msg.lon_deg),
+        round(msg.alt_msl_m * 1000.0),
+        *msg.p_ned_m,
+        [1.0, 0.0, 0.0, 0.0],
+        0.0,
+        0.0,
+        0.0,
+        0,
+    )
+
+
+def _home_from(raw: Any) -> m.HomePosition:
+    lat, lon = raw.latitude / DEG_E7, raw.longitude / DEG_E7
+    _check_lat_lon(lat, lon, "HOME_POSITION")
+    return m.HomePosition(lat, lon, raw.altitude / 1000.0, _vec(raw.x, raw.y, raw.z))
+
+
+def _system_time_to(msg: m.SystemTime) -> Any:
+    return mav.MAVLink_system_time_message(round(msg.time_unix_s * 1e6), _ms(msg.time_boot_s))
+
+
+def _system_time_from(raw: Any) -> m.SystemTime:
+    return m.SystemTime(raw.time_unix_usec / 1e6, raw.time_boot_ms / 1000.0)
+
+
+def _statustext_to(msg: m.StatusText) -> Any:
+    return mav.MAVLink_statustext_message(msg.severity, msg.text.encode("ascii", "replace")[:50])
+
+
+def _statustext_from(raw: Any) -> m.StatusText:
+    text = raw.text if isinstance(raw.text, str) else bytes(raw.text).decode("ascii", "replace")
+    return m.StatusText(raw.severity, text)
+
+
+# --- Open Drone ID ---------------------------------------------------------------------------
+
+
+def _odid_location_to(msg: m.OdidLocation) -> Any:
+    direction = (
+        ODID_UNKNOWN_DIRECTION_CDEG
+        if msg.course_deg is None
+        else round(msg.course_deg * 100.0) % 36000
+    )
+    speed_h = (
+        ODID_UNKNOWN_SPEED_H_CMS
+        if msg.speed_horizontal_m_s is None
+        else min(25425, max(0, round(msg.speed_horizontal_m_s * 100.0)))
+    )
+    speed_v = (
+        ODID_UNKNOWN_SPEED_V_CMS
+        if msg.speed_vertical_m_s is None
+        else min(6200, max(-6200, round(msg.speed_vertical_m_s * 100.0)))
+    )
+    known = msg.lat_deg is not None and msg.lon_deg is not None
+    return mav.MAVLink_open_drone_id_location_message(
+        0,
+        0,
+        _id20(msg.id_or_mac),
+        msg.status,
+        direction,
+        speed_h,
+        speed_v,
+        _deg_e7(msg.lat_deg) if known and msg.lat_deg is not None else 0,
+        _deg_e7(msg.lon_deg) if known and msg.lon_deg is not None else 0,
+        _or(msg.alt_baro_m, ODID_UNKNOWN_ALT_M),
+        _or(msg.alt_geodetic_m, ODID_UNKNOWN_ALT_M),
+        msg.height_reference,
+        _or(msg.height_m, ODID_UNKNOWN_ALT_M),
+        msg.horizontal_accuracy,
+        msg.vertical_accuracy,
+        msg.barometer_accuracy,
+        msg.speed_accuracy,
+        _or(msg.timestamp_s, ODID_UNKNOWN_TIMESTAMP_S),
+        msg.timestamp_accuracy,
+    )
+
+
+def _odid_location_from(raw: Any) -> m.OdidLocation:
+    known = not (raw.latitude == 0 and raw.longitude == 0)
+    lat, lon = raw.latitude / DEG_E7, raw.longitude / DEG_E7
+    if known:
+        _check_lat_lon(lat, lon, "OPEN_DRONE_ID_LOCATION")
+    _finite("OPEN_DRONE_ID_LOCATION", raw.altitude_geodetic, raw.altitude_barometric, raw.height)
+    return m.OdidLocation(
+        id_or_mac=_bytes(raw.id_or_mac),
+        status=raw.status,
+        course_deg=None if raw.direction > 35999 else raw.direction / 100.0,
+        speed_horizontal_m_s=None
+        if raw.speed_horizontal == ODID_UNKNOWN_SPEED_H_CMS
+        else raw.speed_horizontal / 100.0,
+        speed_vertical_m_s=None
+        if raw.speed_vertical == ODID_UNKNOWN_SPEED_V_CMS
+        else raw.speed_vertical / 100.0,
+        lat_deg=lat if known else None,
+        lon_deg=lon if known else None,
+        alt_baro_m=_known(raw.altitude_barometric, ODID_UNKNOWN_ALT_M),
+        alt_geodetic_m=_known(raw.altitude_geodetic, ODID_UNKNOWN_ALT_M),
+        height_reference=raw.height_reference,
+        height_m=_known(raw.height, ODID_UNKNOWN_ALT_M),
+        horizontal_accuracy=raw.horizontal_accuracy,
+        vertical_accuracy=raw.vertical_accuracy,
+        barometer_accuracy=raw.barometer_accuracy,
+        speed_accuracy=raw.speed_accuracy,
+        timestamp_s=_known(raw.timestamp, ODID_UNKNOWN_TIMESTAMP_S),
+        timestamp_accuracy=raw.timestamp_accuracy,
+    )
+
+
+def _odid_basic_id_to(msg: m.OdidBasicId) -> Any:
+    return mav.MAVLink_open_drone_id_basic_id_message(
+        0, 0, _id20(msg.id_or_mac), msg.id_type, msg.ua_type, _id20(msg.uas_id)
+    )
+
+
+def _odid_basic_id_from(raw: Any) -> m.OdidBasicId:
+    return m.OdidBasicId(_bytes(raw.id_or_mac), raw.id_type, raw.ua_type, _bytes(raw.uas_id))
+
+
+def _opt_latlon(value_e7: int, other_e7: int) -> float | None:
+    return None if value_e7 == 0 and other_e7 == 0 else value_e7 / DEG_E7
+
+
+def _odid_system_to(msg: m.OdidSystem) -> Any:
+    return mav.MAVLink_open_drone_id_system_message(
+        0,
+        0,
+        _id20(msg.id_or_mac),
+        msg.operator_location_type,
+        msg.classification_type,
+        0 if msg.operator_lat_deg is None else _deg_e7(msg.operator_lat_deg),
+        0 if msg.operator_lon_deg is None else _deg_e7(msg.operator_lon_deg),
+        msg.area_count,
+        msg.area_radius_m,
+        _or(msg.area_ceiling_m, ODID_UNKNOWN_ALT_M),
+        _or(msg.area_floor_m, ODID_UNKNOWN_ALT_M),
+        msg.category_eu,
+        msg.class_eu,
+        _or(msg.operator_alt_geo_m, ODID_UNKNOWN_ALT_M),
+        msg.timestamp_s,
+    )
+
+
+def _odid_system_from(raw: Any) -> m.OdidSystem:
+    lat = _opt_latlon(raw.operator_latitude, raw.operator_longitude)
+    lon = _opt_latlon(raw.operator_longitude, raw.operator_latitude)
+    if lat is not None and lon is not None:
+        _check_lat_lon(lat, lon, "OPEN_DRONE_ID_SYSTEM")
+    return m.OdidSystem(
+        _bytes(raw.id_or_mac),
+        raw.operator_location_type,
+        raw.classification_type,
+        lat,
+        lon,
+        raw.area_count,
+        raw.area_radius,
+        _known(raw.area_ceiling, ODID_UNKNOWN_ALT_M),
+        _known(raw.area_floor, ODID_UNKNOWN_ALT_M),
+        raw.category_eu,
+        raw.class_eu,
+        _known(raw.operator_altitude_geo, ODID_UNKNOWN_ALT_M),
+        raw.timestamp,
+    )
+
+
+def _odid_system_update_to(msg: m.OdidSystemUpdate) -> Any:
+    return mav.MAVLink_open_drone_id_system_update_message(
+        0,
+        0,
+        0 if msg.operator_lat_deg is None else _deg_e7(msg.operator_lat_deg),
+        0 if msg.operator_lon_deg is None else _deg_e7(msg.operator_lon_deg),
+        _or(msg.operator_alt_geo_m, ODID_UNKNOWN_ALT_M),
+        msg.timestamp_s,
+    )
+
+
+def _odid_system_update_from(raw: Any) -> m.OdidSystemUpdate:
+    return m.OdidSystemUpdate(
+        _opt_latlon(raw.operator_latitude, raw.operator_longitude),
+        _opt_latlon(raw.operator_longitude, raw.operator_latitude),
+        _known(raw.operator_altitude_geo, ODID_UNKNOWN_ALT_M),
+        raw.timestamp,
+    )
+
+
+def _odid_operator_id_to(msg: m.OdidOperatorId) -> Any:
+    return mav.MAVLink_open_drone_id_operator_id_message(
+        0, 0, _id20(msg.id_or_mac), msg.operator_id_type, msg.operator_id.encode("ascii")[:20]
+    )
+
+
+def _odid_operator_id_from(raw: Any) -> m.OdidOperatorId:
+    return m.OdidOperatorId(_bytes(raw.id_or_mac), raw.operator_id_type, _text(raw.operator_id))
+
+
+def _odid_self_id_to(msg: m.OdidSelfId) -> Any:
+    return mav.MAVLink_open_drone_id_self_id_message(
+        0, 0, _id20(msg.id_or_mac), msg.description_type, msg.description.encode("ascii")[:23]
+    )
+
+
+def _odid_self_id_from(raw: Any) -> m.OdidSelfId:
+    return m.OdidSelfId(_bytes(raw.id_or_mac), raw.description_type, _text(raw.description))
+
+
+def _odid_arm_status_to(msg: m.OdidArmStatus) -> Any:
+    return mav.MAVLink_open_drone_id_arm_status_message(msg.status, msg.error.encode("ascii")[:50])
+
+
+def _odid_arm_status_from(raw: Any) -> m.OdidArmStatus:
+    return m.OdidArmStatus(raw.status, _text(raw.error))
+
+
+def _text(value: bytes | str) -> str:
+    return value if isinstance(value, str) else value.rstrip(b"\x00").decode("ascii", "replace")
+
+
+_RAW_ODID_NAMES = ("OPEN_DRONE_ID_AUTHENTICATION", "OPEN_DRONE_ID_MESSAGE_PACK")
+
+
+def _odid_raw_to(msg: m.OdidRaw) -> Any:
+    if msg.name not in _RAW_ODID_NAMES:
+        raise WireError(f"OdidRaw carries {msg.name}, expected one of {_RAW_ODID_NAMES}")
+    cls = mav.mavlink_map[getattr(mav, "MAVLINK_MSG_ID_" + msg.name)]
+    return cls(**dict(msg.fields))
+
+
+def _odid_raw_from(raw: Any) -> m.OdidRaw:
+    fields = tuple((name, _freeze(getattr(raw, name))) for name in raw.get_fieldnames())
+    return m.OdidRaw(raw.get_type(), fields)
+
+
+def _freeze(value: Any) -> object:
+    return tuple(value) if isinstance(value, list) else value
+
+
+# --- ridsafe dialect -----------------------------------------------------------------------
+
+
+def _us(t_s: float) -> int:
+    return max(0, round(t_s * 1e6))
+
+
+def _rid_rssi_to(msg: m.RidRssi) -> Any:
+    return mav.MAVLink_ridsafe_rid_rssi_message(
+        _us(msg.t_s), msg.rssi_dbm, _id20(msg.id_or_mac), msg.odid_message_type
+    )
+
+
+def _rid_rssi_from(raw: Any) -> m.RidRssi:
+    _finite("RIDSAFE_RID_RSSI", raw.rssi_dbm)
+    return m.RidRssi(
+        raw.time_usec / 1e6, raw.rssi_dbm, _bytes(raw.id_or_mac), raw.odid_message_type
+    )
+
+
+def _uas_id(uas_id: str) -> bytes:
+    raw = uas_id.encode("ascii")
+    if len(raw) > ODID_ID_LEN:
+        raise WireError(f"uas_id {uas_id!r} is longer than {ODID_ID_LEN} characters")
+    return raw
+
+
+def _observation_to(msg: m.Observation) -> Any:
+    course = msg.claimed_course_deg
+    speed_h = msg.claimed_speed_horizontal_m_s
+    speed_v = msg.claimed_speed_vertical_m_s
+    return mav.MAVLink_ridsafe_observation_message(
+        _us(msg.t_s),
+        _deg_e7(msg.rx_lat_deg),
+        _deg_e7(msg.rx_lon_deg),
+        msg.rx_alt_m,
+        _deg_e7(msg.claimed_lat_deg),
+        _deg_e7(msg.claimed_lon_deg),
+        msg.claimed_alt_m,
+        msg.rid_timestamp_s,
+        msg.rssi_dbm,
+        ODID_UNKNOWN_DIRECTION_CDEG if course is None else round(course * 100.0) % 36000,
+        ODID_UNKNOWN_SPEED_H_CMS if speed_h is None else min(25425, round(speed_h * 100.0)),
+        ODID_UNKNOWN_SPEED_V_CMS if speed_v is None else _cms(speed_v),
+        _uas_id(msg.uas_id),
+    )
+
+
+def _observation_from(raw: Any) -> m.Observation:
+    rx_lat, rx_lon = raw.rx_lat / DEG_E7, raw.rx_lon / DEG_E7
+    c_lat, c_lon = raw.claimed_lat / DEG_E7, raw.claimed_lon / DEG_E7
+    _check_lat_lon(rx_lat, rx_lon, "RIDSAFE_OBSERVATION receiver")
+    _check_lat_lon(c_lat, c_lon, "RIDSAFE_OBSERVATION claimed")
+    _finite("RIDSAFE_OBSERVATION", raw.rx_alt, raw.claimed_alt, raw.rid_timestamp, raw.rssi_dbm)
+    return m.Observation(
+        t_s=raw.time_usec / 1e6,
+        rx_lat_deg=rx_lat,
+        rx_lon_deg=rx_lon,
+        rx_alt_m=raw.rx_alt,
+        claimed_lat_deg=c_lat,
+        claimed_lon_deg=c_lon,
+        claimed_alt_m=raw.claimed_alt,
+        rid_timestamp_s=raw.rid_timestamp,
+        rssi_dbm=raw.rssi_dbm,
+        claimed_course_deg=None if raw.claimed_direction > 35999 else raw.claimed_direction / 100,
+        claimed_speed_horizontal_m_s=None
+        if raw.claimed_speed_horizontal == ODID_UNKNOWN_SPEED_H_CMS
+        else raw.claimed_speed_horizontal / 100.0,
+        claimed_speed_vertical_m_s=None
+        if raw.claimed_speed_vertical == ODID_UNKNOWN_SPEED_V_CMS
+        else raw.claimed_speed_vertical / 100.0,
+        uas_id=_text(raw.uas_id),
+    )
+
+
+def _region_to(msg: m.UnsafeRegionMsg) -> Any:
+    return mav.MAVLink_ridsafe_unsafe_region_message(
+        _us(msg.t_s),
+        _us(msg.valid_until_s),
+        _deg_e7(msg.center_lat_deg),
+        _deg_e7(msg.center_lon_deg),
+        msg.center_alt_m,
+        list(msg.cov_ned_m2),
+        list(msg.v_ned_m_s),
+        msg.chi2_threshold,
+        msg.alpha,
+        msg.track_id,
+        msg.flags,
+        _uas_id(msg.uas_id),
+    )
+
+
+def _region_from(raw: Any) -> m.UnsafeRegionMsg:
+    lat, lon = raw.center_lat / DEG_E7, raw.center_lon / DEG_E7
+    _check_lat_lon(lat, lon, "RIDSAFE_UNSAFE_REGION")
+    cov = tuple(float(c) for c in raw.cov_ned)
+    vel = tuple(float(v) for v in raw.vel_ned)
+    _finite("RIDSAFE_UNSAFE_REGION", raw.center_alt, raw.chi2_threshold, *cov, *vel)
+    return m.UnsafeRegionMsg(
+        raw.time_usec / 1e6,
+        raw.valid_until_usec / 1e6,
+        lat,
+        lon,
+        raw.center_alt,
+        (cov[0], cov[1], cov[2], cov[3], cov[4], cov[5]),
+        (vel[0], vel[1], vel[2]),
+        raw.chi2_threshold,
+        raw.alpha,
+        raw.track_id,
+        raw.flags,
+        _text(raw.uas_id),
+    )
+
+
+def _alert_to(msg: m.SpoofAlert) -> Any:
+    return mav.MAVLink_ridsafe_spoof_alert_message(
+        _us(msg.t_s), msg.statistic, msg.threshold, msg.detector, msg.state, _uas_id(msg.uas_id)
+    )
+
+
+def _alert_from(raw: Any) -> m.SpoofAlert:
+    return m.SpoofAlert(
+        raw.time_usec / 1e6,
+        raw.statistic,
+        raw.threshold,
+        raw.detector,
+        raw.state,
+        _text(raw.uas_id),
+    )
+
+
+def _tick_to(msg: m.LockstepTick) -> Any:
+    return mav.MAVLink_ridsafe_lockstep_tick_message(_us(msg.t_s), msg.tick)
+
+
+def _tick_from(raw: Any) -> m.LockstepTick:
+    return m.LockstepTick(raw.time_usec / 1e6, raw.tick)
+
+
+def _done_to(msg: m.LockstepDone) -> Any:
+    return mav.MAVLink_ridsafe_lockstep_done_message(_us(msg.t_s), msg.tick)
+
+
+def _done_from(raw: Any) -> m.LockstepDone:
+    return m.LockstepDone(raw.time_usec / 1e6, raw.tick)
+
+
+# --- the tables ------------------------------------------------------------------------------
+
+# domain class -> (MAVLink message name, to-MAVLink, from-MAVLink)
+_CODECS: dict[type, tuple[str, ToMav, FromMav]] = {
+    m.Heartbeat: ("HEARTBEAT", _heartbeat_to, _heartbeat_from),
+    m.CommandLong: ("COMMAND_LONG", _command_long_to, _command_long_from),
+    m.CommandAck: ("COMMAND_ACK", _command_ack_to, _command_ack_from),
+    m.SetMode: ("SET_MODE", _set_mode_to, _set_mode_from),
+    m.SetPositionTargetLocalNed: ("SET_POSITION_TARGET_LOCAL_NED", _spt_to, _spt_from),
+    m.GlobalPositionInt: ("GLOBAL_POSITION_INT", _gpi_to, _gpi_from),
+    m.LocalPositionNed: ("LOCAL_POSITION_NED", _lpn_to, _lpn_from),
+    m.Attitude: ("ATTITUDE", _attitude_to, _attitude_from),
+    m.SysStatus: ("SYS_STATUS", _sys_status_to, _sys_status_from),
+    m.HomePosition: ("HOME_POSITION", _home_to, _home_from),
+    m.SystemTime: ("SYSTEM_TIME", _system_time_to, _system_time_from),
+    m.StatusText: ("STATUSTEXT", _statustext_to, _statustext_from),
+    m.OdidBasicId: ("OPEN_DRONE_ID_BASIC_ID", _odid_basic_id_to, _odid_basic_id_from),
+    m.OdidLocation: ("OPEN_DRONE_ID_LOCATION", _odid_location_to, _odid_location_from),
+    m.OdidSystem: ("OPEN_DRONE_ID_SYSTEM", _odid_system_to, _odid_system_from),
+    m.OdidSystemUpdate: (
+        "OPEN_DRONE_ID_SYSTEM_UPDATE",
+        _odid_system_update_to,
+        _odid_system_update_from,
+    ),
+    m.OdidOperatorId: ("OPEN_DRONE_ID_OPERATOR_ID", _odid_operator_id_to, _odid_operator_id_from),
+    m.OdidSelfId: ("OPEN_DRONE_ID_SELF_ID", _odid_self_id_to, _odid_self_id_from),
+    m.OdidArmStatus: ("OPEN_DRONE_ID_ARM_STATUS", _odid_arm_status_to, _odid_arm_status_from),
+    m.RidRssi: ("RIDSAFE_RID_RSSI", _rid_rssi_to, _rid_rssi_from),
+    m.Observation: ("RIDSAFE_OBSERVATION", _observation_to, _observation_from),
+    m.UnsafeRegionMsg: ("RIDSAFE_UNSAFE_REGION", _region_to, _region_from),
+    m.SpoofAlert: ("RIDSAFE_SPOOF_ALERT", _alert_to, _alert_from),
+    m.LockstepTick: ("RIDSAFE_LOCKSTEP_TICK", _tick_to, _tick_from),
+    m.LockstepDone: ("RIDSAFE_LOCKSTEP_DONE", _done_to, _done_from),
+}
+_FROM_NAME: dict[str, FromMav] = {name: dec for name, _, dec in _CODECS.values()}
+for _name in _RAW_ODID_NAMES:
+    _FROM_NAME[_name] = _odid_raw_from
+
+
+def to_mavlink(message: m.Message) -> Any:
+    """The pymavlink message object for a domain message (raises WireError if unencodable)."""
+    if isinstance(message, m.OdidRaw):
+        return _odid_raw_to(message)
+    try:
+        _, encode, _ = _CODECS[type(message)]
+    except KeyError:
+        raise WireError(f"no MAVLink encoding for {type(message).__name__}") from None
+    return encode(message)
+
+
+def from_mavlink(raw: Any) -> m.Message | None:
+    """The domain message for a pymavlink message, or None if the apps do not use it.
+
+    Raises WireError for values that no valid sender produces (latitude 91 deg, NaN RSSI).
+    """
+    decode = _FROM_NAME.get(raw.get_type())
+    return None if decode is None else decode(raw)
+
+
+def odid_fields(message: m.Message) -> tuple[str, dict[str, object]]:
+    """MAVLink message name and field values (the form F3411 encoding works on)."""
+    raw = to_mavlink(message)
+    fields = {name: _plain(getattr(raw, name)) for name in raw.get_fieldnames()}
+    return raw.get_type(), fields
+
+
+def message_from_fields(name: str, fields: dict[str, object]) -> m.Message:
+    """The domain message for MAVLink field values (inverse of ``odid_fields``)."""
+    cls = mav.mavlink_map.get(getattr(mav, "MAVLINK_MSG_ID_" + name, -1))
+    if cls is None:
+        raise WireError(f"unknown MAVLink message {name!r}")
+    values = {k: (v.encode("latin-1") if isinstance(v, str) else v) for k, v in fields.items()}
+    raw = cls(**values)
+    decoded = from_mavlink(raw)
+    if decoded is None:
+        raise WireError(f"{name} has no domain message")
+    return decoded
+
+
+def _plain(value: Any) -> object:
+    if isinstance(value, bytes):
+        return value.rstrip(b"\x00").decode("latin-1")
+    return list(value) if isinstance(value, list | tuple) else value
+
+
+# --- one end of a link ----------------------------------------------------------------------
+
+
+class MavlinkLink:
+    """One end of a MAVLink 2 link, sans I/O.
+
+    ``src_system`` / ``src_component`` stamp outgoing packets. With ``signing`` set, every
+    outgoing packet is signed and incoming packets must carry a valid signature: unsigned
+    or wrongly signed ones are dropped and counted in ``counters.rejected_signature``.
+    """
+
+    def __init__(
+        self, src_system: int, src_component: int, signing: SigningConfig | None = None
+    ) -> None:
+        self._mav = mav.MAVLink(None, srcSystem=src_system, srcComponent=src_component)
+        self._mav.robust_parsing = True
+        self.counters = LinkCounters()
+        self.signing = signing
+        if signing is not None:
+            self._mav.signing.secret_key = signing.key
+            self._mav.signing.sign_outgoing = True
+            self._mav.signing.link_id = signing.link_id
+            self._mav.signing.timestamp = signing.initial_timestamp
+            self._mav.signing.allow_unsigned_callback = _refuse_unsigned
+
+    @property
+    def src_system(self) -> int:
+        return int(self._mav.srcSystem)
+
+    @property
+    def src_component(self) -> int:
+        return int(self._mav.srcComponent)
+
+    def pack(self, message: m.Message) -> bytes:
+        """Encode one message as one MAVLink 2 packet and advance the sequence number."""
+        raw = to_mavlink(message)
+        data = bytes(raw.pack(self._mav))
+        self._mav.seq = (self._mav.seq + 1) % 256
+        return data
+
+    def pack_all(self, messages: list[m.Message]) -> bytes:
+        return b"".join(self.pack(message) for message in messages)
+
+    def feed(self, data: bytes) -> list[Received]:
+        """Parse bytes (any split across calls); return the accepted messages."""
+        try:
+            parsed = self._mav.parse_buffer(data)
+        except Exception as exc:  # pymavlink raises a variety on hostile input
+            self._drop("bad_data", f"parser error: {exc!r}")
+            self._mav.buf = bytearray()
+            self._mav.buf_index = 0
+            return []
+        if not parsed:
+            return []
+        received: list[Received] = []
+        for raw in parsed:
+            item = self._accept(raw)
+            if item is not None:
+                received.append(item)
+        return received
+
+    def _accept(self, raw: Any) -> Received | None:
+        name = raw.get_type()
+        if name == "BAD_DATA":
+            reason = str(getattr(raw, "reason", ""))
+            kind = "rejected_signature" if "signature" in reason else "bad_data"
+            self._drop(kind, reason)
+            return None
+        if name.startswith("UNKNOWN_"):
+            self._drop("unknown_id", f"unknown message id in {name}")
+            return None
+        try:
+            message = from_mavlink(raw)
+        except (WireError, ValueError, TypeError, UnicodeDecodeError) as exc:
+            self._drop("invalid_value", f"{name} from {raw.get_srcSystem()}: {exc}")
+            return None
+        if message is None:
+            self.counters.unhandled += 1
+            logger.debug("ignoring %s from %d", name, raw.get_srcSystem())
+            return None
+        self.counters.accepted += 1
+        signed = bool(raw.get_header().incompat_flags & mav.MAVLINK_IFLAG_SIGNED)
+        return Received(raw.get_srcSystem(), raw.get_srcComponent(), message, signed)
+
+    def _drop(self, kind: str, reason: str) -> None:
+        setattr(self.counters, kind, getattr(self.counters, kind) + 1)
+        self.counters.last_error = reason
+        logger.warning(
+            "link %d/%d dropped %s: %s", self.src_system, self.src_component, kind, reason
+        )
+
+
+def _refuse_unsigned(_mav: Any, _msg_id: int) -> bool:
+    return False

@@ -1,0 +1,495 @@
+"""Domain messages: one frozen dataclass per MAVLink message the apps exchange.
+
+Units and frames are in the field names (``p_ned_m``, ``v_ned_m_s``, ``lat_deg``). Only
+``ridsafe.common.codec`` knows MAVLink's scales (degE7, cm/s, mm, cdeg); everything else in
+the project speaks these classes. Vectors are tuples, so instances are hashable and compare
+by value. ``None`` stands for MAVLink's "unknown" sentinel values (e.g. an Open Drone ID
+speed of 25500 cm/s).
+
+Frames: ``ned`` is local North-East-Down about the vehicle's home / the scenario origin,
+``frd`` the body frame Forward-Right-Down, ``geodetic`` WGS-84 latitude, longitude and
+ellipsoidal altitude.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+from typing import TypeAlias
+
+Vec3: TypeAlias = tuple[float, float, float]
+
+
+# --- MAVLink enums used by the apps (values from common.xml / ArduPilot) -------------------
+
+
+class MavType(enum.IntEnum):
+    GCS = 6
+    OCTOROTOR = 14
+    ONBOARD_CONTROLLER = 18
+    ODID = 34
+
+
+class MavAutopilot(enum.IntEnum):
+    GENERIC = 0
+    ARDUPILOTMEGA = 3
+    INVALID = 8
+
+
+class MavModeFlag(enum.IntFlag):
+    CUSTOM_MODE_ENABLED = 1
+    TEST_ENABLED = 2
+    AUTO_ENABLED = 4
+    GUIDED_ENABLED = 8
+    STABILIZE_ENABLED = 16
+    HIL_ENABLED = 32
+    MANUAL_INPUT_ENABLED = 64
+    SAFETY_ARMED = 128
+
+
+class MavState(enum.IntEnum):
+    UNINIT = 0
+    BOOT = 1
+    CALIBRATING = 2
+    STANDBY = 3
+    ACTIVE = 4
+    CRITICAL = 5
+    EMERGENCY = 6
+    POWEROFF = 7
+
+
+class CopterMode(enum.IntEnum):
+    """ArduCopter flight modes (HEARTBEAT.custom_mode)."""
+
+    STABILIZE = 0
+    ACRO = 1
+    ALT_HOLD = 2
+    AUTO = 3
+    GUIDED = 4
+    LOITER = 5
+    RTL = 6
+    CIRCLE = 7
+    LAND = 9
+    BRAKE = 17
+
+
+class MavCmd(enum.IntEnum):
+    NAV_RETURN_TO_LAUNCH = 20
+    NAV_LAND = 21
+    NAV_TAKEOFF = 22
+    DO_SET_MODE = 176
+    COMPONENT_ARM_DISARM = 400
+    SET_MESSAGE_INTERVAL = 511
+    REQUEST_MESSAGE = 512
+
+
+class MavResult(enum.IntEnum):
+    ACCEPTED = 0
+    TEMPORARILY_REJECTED = 1
+    DENIED = 2
+    UNSUPPORTED = 3
+    FAILED = 4
+    IN_PROGRESS = 5
+    CANCELLED = 6
+
+
+class MavFrame(enum.IntEnum):
+    GLOBAL = 0
+    LOCAL_NED = 1
+    LOCAL_OFFSET_NED = 7
+    BODY_NED = 8
+    BODY_OFFSET_NED = 9
+    BODY_FRD = 12
+
+
+class MavSeverity(enum.IntEnum):
+    EMERGENCY = 0
+    ALERT = 1
+    CRITICAL = 2
+    ERROR = 3
+    WARNING = 4
+    NOTICE = 5
+    INFO = 6
+    DEBUG = 7
+
+
+class PositionTargetMask(enum.IntFlag):
+    """POSITION_TARGET_TYPEMASK: a set bit means "ignore this field"."""
+
+    X_IGNORE = 1
+    Y_IGNORE = 2
+    Z_IGNORE = 4
+    VX_IGNORE = 8
+    VY_IGNORE = 16
+    VZ_IGNORE = 32
+    AX_IGNORE = 64
+    AY_IGNORE = 128
+    AZ_IGNORE = 256
+    FORCE_SET = 512
+    YAW_IGNORE = 1024
+    YAW_RATE_IGNORE = 2048
+
+    POSITION_ONLY = 3576
+    VELOCITY_ONLY = 3527
+    POSITION_VELOCITY = 3520
+
+
+class OdidStatus(enum.IntEnum):
+    UNDECLARED = 0
+    GROUND = 1
+    AIRBORNE = 2
+    EMERGENCY = 3
+    REMOTE_ID_SYSTEM_FAILURE = 4
+
+
+class OdidIdType(enum.IntEnum):
+    NONE = 0
+    SERIAL_NUMBER = 1
+    CAA_REGISTRATION_ID = 2
+    UTM_ASSIGNED_UUID = 3
+    SPECIFIC_SESSION_ID = 4
+
+
+class OdidUaType(enum.IntEnum):
+    NONE = 0
+    AEROPLANE = 1
+    HELICOPTER_OR_MULTIROTOR = 2
+
+
+class OdidMessageType(enum.IntEnum):
+    """ASTM F3411 message types (high nibble of byte 0)."""
+
+    BASIC_ID = 0
+    LOCATION = 1
+    AUTHENTICATION = 2
+    SELF_ID = 3
+    SYSTEM = 4
+    OPERATOR_ID = 5
+    MESSAGE_PACK = 15
+
+
+class RidsafeDetector(enum.IntEnum):
+    FORCED = 0
+    NIS = 1
+    POWER_SPREAD = 2
+    NIS_WINDOW = 3
+    CUSUM = 4
+    MLAT = 5
+
+
+class AlertState(enum.IntEnum):
+    CLEARED = 0
+    RAISED = 1
+
+
+class RegionFlags(enum.IntFlag):
+    NONE = 0
+    DELETED = 1
+    COASTING = 2
+
+
+# --- Autopilot link (standard common.xml messages) ------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class Heartbeat:
+    mav_type: int
+    autopilot: int
+    base_mode: int
+    custom_mode: int
+    system_status: int
+
+    @property
+    def armed(self) -> bool:
+        return bool(self.base_mode & MavModeFlag.SAFETY_ARMED)
+
+
+@dataclass(frozen=True, slots=True)
+class CommandLong:
+    target_system: int
+    target_component: int
+    command: int
+    confirmation: int
+    params: tuple[float, float, float, float, float, float, float]
+
+
+@dataclass(frozen=True, slots=True)
+class CommandAck:
+    command: int
+    result: int
+    target_system: int
+    target_component: int
+    progress: int = 0
+    result_param2: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class SetMode:
+    """Legacy SET_MODE message (pymavlink's ``set_mode`` still sends it)."""
+
+    target_system: int
+    base_mode: int
+    custom_mode: int
+
+
+@dataclass(frozen=True, slots=True)
+class SetPositionTargetLocalNed:
+    time_boot_s: float
+    target_system: int
+    target_component: int
+    coordinate_frame: int
+    type_mask: int
+    p_ned_m: Vec3
+    v_ned_m_s: Vec3
+    a_ned_m_s2: Vec3
+    yaw_rad: float
+    yaw_rate_rad_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class GlobalPositionInt:
+    time_boot_s: float
+    lat_deg: float
+    lon_deg: float
+    alt_msl_m: float
+    relative_alt_m: float
+    v_ned_m_s: Vec3
+    heading_deg: float | None
+
+
+@dataclass(frozen=True, slots=True)
+class LocalPositionNed:
+    time_boot_s: float
+    p_ned_m: Vec3
+    v_ned_m_s: Vec3
+
+
+@dataclass(frozen=True, slots=True)
+class Attitude:
+    time_boot_s: float
+    roll_rad: float
+    pitch_rad: float
+    yaw_rad: float
+    rates_frd_rad_s: Vec3
+
+
+@dataclass(frozen=True, slots=True)
+class SysStatus:
+    sensors_present: int
+    sensors_enabled: int
+    sensors_health: int
+    load_pct: float
+    battery_voltage_v: float | None
+    battery_remaining_pct: int | None
+
+
+@dataclass(frozen=True, slots=True)
+class HomePosition:
+    lat_deg: float
+    lon_deg: float
+    alt_msl_m: float
+    p_ned_m: Vec3
+
+
+@dataclass(frozen=True, slots=True)
+class SystemTime:
+    time_unix_s: float
+    time_boot_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class StatusText:
+    severity: int
+    text: str
+
+
+# --- Open Drone ID (common.xml OPEN_DRONE_ID_*) -------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class OdidBasicId:
+    id_or_mac: bytes
+    id_type: int
+    ua_type: int
+    uas_id: bytes
+
+    @property
+    def uas_id_str(self) -> str:
+        return self.uas_id.rstrip(b"\x00").decode("ascii", errors="replace")
+
+
+@dataclass(frozen=True, slots=True)
+class OdidLocation:
+    id_or_mac: bytes
+    status: int
+    course_deg: float | None
+    speed_horizontal_m_s: float | None
+    speed_vertical_m_s: float | None
+    lat_deg: float | None
+    lon_deg: float | None
+    alt_baro_m: float | None
+    alt_geodetic_m: float | None
+    height_reference: int
+    height_m: float | None
+    horizontal_accuracy: int
+    vertical_accuracy: int
+    barometer_accuracy: int
+    speed_accuracy: int
+    timestamp_s: float | None
+    timestamp_accuracy: int
+
+
+@dataclass(frozen=True, slots=True)
+class OdidSystem:
+    id_or_mac: bytes
+    operator_location_type: int
+    classification_type: int
+    operator_lat_deg: float | None
+    operator_lon_deg: float | None
+    area_count: int
+    area_radius_m: int
+    area_ceiling_m: float | None
+    area_floor_m: float | None
+    category_eu: int
+    class_eu: int
+    operator_alt_geo_m: float | None
+    timestamp_s: int
+
+
+@dataclass(frozen=True, slots=True)
+class OdidSystemUpdate:
+    operator_lat_deg: float | None
+    operator_lon_deg: float | None
+    operator_alt_geo_m: float | None
+    timestamp_s: int
+
+
+@dataclass(frozen=True, slots=True)
+class OdidOperatorId:
+    id_or_mac: bytes
+    operator_id_type: int
+    operator_id: str
+
+
+@dataclass(frozen=True, slots=True)
+class OdidSelfId:
+    id_or_mac: bytes
+    description_type: int
+    description: str
+
+
+@dataclass(frozen=True, slots=True)
+class OdidArmStatus:
+    status: int
+    error: str
+
+
+@dataclass(frozen=True, slots=True)
+class OdidRaw:
+    """An Open Drone ID message passed through as its MAVLink field values
+    (AUTHENTICATION and MESSAGE_PACK: nothing in the apps reads inside them)."""
+
+    name: str
+    fields: tuple[tuple[str, object], ...]
+
+
+# --- ridsafe dialect (ids 61000-61099) --------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class RidRssi:
+    """Signal strength of the Remote ID frame handed over just before this message."""
+
+    t_s: float
+    rssi_dbm: float
+    id_or_mac: bytes
+    odid_message_type: int
+
+
+@dataclass(frozen=True, slots=True)
+class Observation:
+    """One received RID location broadcast with its RSSI, as reported to the GCS."""
+
+    t_s: float
+    rx_lat_deg: float
+    rx_lon_deg: float
+    rx_alt_m: float
+    claimed_lat_deg: float
+    claimed_lon_deg: float
+    claimed_alt_m: float
+    rid_timestamp_s: float
+    rssi_dbm: float
+    claimed_course_deg: float | None
+    claimed_speed_horizontal_m_s: float | None
+    claimed_speed_vertical_m_s: float | None
+    uas_id: str
+
+
+@dataclass(frozen=True, slots=True)
+class UnsafeRegionMsg:
+    """Chance-constrained ellipsoid (x - c)^T P^-1 (x - c) <= chi2_threshold."""
+
+    t_s: float
+    valid_until_s: float
+    center_lat_deg: float
+    center_lon_deg: float
+    center_alt_m: float
+    cov_ned_m2: tuple[float, float, float, float, float, float]  # xx, xy, xz, yy, yz, zz
+    v_ned_m_s: Vec3
+    chi2_threshold: float
+    alpha: float
+    track_id: int
+    flags: int
+    uas_id: str
+
+
+@dataclass(frozen=True, slots=True)
+class SpoofAlert:
+    t_s: float
+    statistic: float
+    threshold: float
+    detector: int
+    state: int
+    uas_id: str
+
+
+@dataclass(frozen=True, slots=True)
+class LockstepTick:
+    t_s: float
+    tick: int
+
+
+@dataclass(frozen=True, slots=True)
+class LockstepDone:
+    t_s: float
+    tick: int
+
+
+Message: TypeAlias = (
+    Heartbeat
+    | CommandLong
+    | CommandAck
+    | SetMode
+    | SetPositionTargetLocalNed
+    | GlobalPositionInt
+    | LocalPositionNed
+    | Attitude
+    | SysStatus
+    | HomePosition
+    | SystemTime
+    | StatusText
+    | OdidBasicId
+    | OdidLocation
+    | OdidSystem
+    | OdidSystemUpdate
+    | OdidOperatorId
+    | OdidSelfId
+    | OdidArmStatus
+    | OdidRaw
+    | RidRssi
+    | Observation
+    | UnsafeRegionMsg
+    | SpoofAlert
+    | LockstepTick
+    | LockstepDone
+)
