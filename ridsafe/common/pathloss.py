@@ -1,0 +1,114 @@
+r"""Free-space path loss: the paper's received-power model and its inverses.
+
+The paper's model (free space; paper eq. (8), ``eq:fspl_rewrite``)::
+
+    Pr = Pt - 20 log10(d_km) - 20 log10(f_MHz) - 32.44            [dBm, km, MHz]
+
+With d in metres, 20 log10(d_km) = 20 log10(d_m) - 60, so::
+
+    Pr = Pt - 20 log10(d_m) - L1(f),    L1(f) = 20 log10(f_MHz) + 32.44 - 60
+
+L1 is the loss over the first metre: L1(2400 MHz) = 40.0442 dB (:data:`LOSS_AT_1M_2400MHZ_DB`).
+The paper's multilateration objective (eq. (9)) and the authors' detectors use it rounded,
+Pr = Pt - 20 log10(d_m) - 40.04 (:data:`DETECTOR_LOSS_AT_1M_DB`); the two differ by 0.0042 dB,
+far below any RSSI noise.
+Which constant each function uses:
+
+- :func:`received_power_dbm`, :func:`distance_m_from_power`, :func:`loss_at_1m_db`: the exact
+  L1(f) from the paper's equation (at any frequency).
+- :func:`implied_tx_power_dbm`: its ``loss_1m_db`` argument, default the detectors' rounded
+  40.04, so detection reproduces the reference detectors; pass :data:`LOSS_AT_1M_2400MHZ_DB`
+  to invert :func:`received_power_dbm` exactly.
+
+Distances below :data:`MIN_DISTANCE_M` (1 m) are clamped to it: the far-field model means nothing
+closer, and log10(0) never happens. Negative distances raise ValueError; NaN propagates.
+All functions are vectorised: array arguments broadcast and the result has the broadcast shape.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "DETECTOR_LOSS_AT_1M_DB",
+    "FSPL_CONSTANT_DB",
+    "LOSS_AT_1M_2400MHZ_DB",
+    "MIN_DISTANCE_M",
+    "RID_FREQUENCY_MHZ",
+    "distance_m_from_power",
+    "implied_tx_power_dbm",
+    "loss_at_1m_db",
+    "received_power_dbm",
+]
+
+FloatArray = NDArray[np.float64]
+
+#: The free-space constant of the paper's equation, for d in km and f in MHz.
+FSPL_CONSTANT_DB = 32.44
+#: Remote ID broadcast frequency used throughout (2.4 GHz band).
+RID_FREQUENCY_MHZ = 2400.0
+#: Loss over the first metre at 2400 MHz, exact from the paper's equation: 40.0442 dB.
+LOSS_AT_1M_2400MHZ_DB = 20.0 * math.log10(RID_FREQUENCY_MHZ) + FSPL_CONSTANT_DB - 60.0
+#: The rounded first-metre loss of the authors' reference detectors.
+DETECTOR_LOSS_AT_1M_DB = 40.04
+#: Distances are clamped to at least this (metres) before taking log10.
+MIN_DISTANCE_M = 1.0
+
+
+def loss_at_1m_db(frequency_mhz: ArrayLike = RID_FREQUENCY_MHZ) -> FloatArray:
+    """L1(f) = 20 log10(f_MHz) + 32.44 - 60 dB, the paper's loss over the first metre."""
+    f = np.asarray(frequency_mhz, dtype=np.float64)
+    if np.any(f <= 0.0):
+        raise ValueError(f"frequency_mhz must be > 0, got {frequency_mhz!r}")
+    loss: FloatArray = 20.0 * np.log10(f) + FSPL_CONSTANT_DB - 60.0
+    return loss
+
+
+def _log_distance_db(distance_m: ArrayLike) -> FloatArray:
+    """20 log10(max(d, MIN_DISTANCE_M)); raises on negative distances."""
+    d = np.asarray(distance_m, dtype=np.float64)
+    if np.any(d < 0.0):
+        raise ValueError(f"distance_m must be >= 0, got min {float(np.nanmin(d))!r}")
+    out: FloatArray = 20.0 * np.log10(np.maximum(d, MIN_DISTANCE_M))
+    return out
+
+
+def received_power_dbm(
+    tx_power_dbm: ArrayLike, distance_m: ArrayLike, frequency_mhz: ArrayLike = RID_FREQUENCY_MHZ
+) -> FloatArray:
+    """Pr = Pt - 20 log10(max(d_m, 1 m)) - L1(f): received power in dBm (exact constant)."""
+    pt = np.asarray(tx_power_dbm, dtype=np.float64)
+    pr: FloatArray = pt - _log_distance_db(distance_m) - loss_at_1m_db(frequency_mhz)
+    return pr
+
+
+def distance_m_from_power(
+    rx_power_dbm: ArrayLike, tx_power_dbm: ArrayLike, frequency_mhz: ArrayLike = RID_FREQUENCY_MHZ
+) -> FloatArray:
+    """d = 10^((Pt - Pr - L1(f)) / 20), the inverse of :func:`received_power_dbm`, in metres.
+
+    Clamped to at least :data:`MIN_DISTANCE_M`: a received power above the 1 m level means
+    "closer than the model resolves", consistent with the clamp in :func:`received_power_dbm`.
+    """
+    pr = np.asarray(rx_power_dbm, dtype=np.float64)
+    pt = np.asarray(tx_power_dbm, dtype=np.float64)
+    exponent = (pt - pr - loss_at_1m_db(frequency_mhz)) / 20.0
+    d: FloatArray = np.maximum(10.0**exponent, MIN_DISTANCE_M)
+    return d
+
+
+def implied_tx_power_dbm(
+    rssi_dbm: ArrayLike, distance_m: ArrayLike, loss_1m_db: ArrayLike = DETECTOR_LOSS_AT_1M_DB
+) -> FloatArray:
+    """Pt = RSSI + 20 log10(max(d_m, 1 m)) + L1: the transmit power a reception implies.
+
+    Used by spoofing detection with d the distance to the *claimed* position: an honest
+    transmitter implies the same Pt at every receiver, a spoofer does not. ``loss_1m_db``
+    defaults to the reference detectors' rounded 40.04 dB.
+    """
+    rssi = np.asarray(rssi_dbm, dtype=np.float64)
+    pt: FloatArray = rssi + _log_distance_db(distance_m) + np.asarray(loss_1m_db, np.float64)
+    return pt
