@@ -1,0 +1,125 @@
+"""Drive a sans-I/O core over real UDP sockets in (scaled) real time.
+
+A core is anything with ``handle(now_s, inbound) -> outbound`` where inbound and outbound
+are ``(endpoint_name, datagram)`` pairs. ``UdpRunner`` owns one ``UdpEndpoint`` per endpoint
+name; every ``tick_s`` of sim time (``tick_s / speed`` of wall time) it drains every socket,
+calls the core once with everything that arrived, and sends what the core returns. Sockets
+live here and nowhere else.
+
+An endpoint with a fixed remote (``udpout``) always sends there; one without (``udpin``)
+replies to the last peer it heard from, and until it has heard from one, what the core
+sends there is counted in ``unsent_no_peer`` and dropped, as a serial port with nothing
+attached would drop it.
+"""
+
+from __future__ import annotations
+
+import logging
+import selectors
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Protocol
+
+from ridsafe.common.clock import MonotonicClock
+from ridsafe.common.errors import UdpError
+from ridsafe.common.udp import UdpEndpoint
+
+logger = logging.getLogger(__name__)
+
+Datagrams = list[tuple[str, bytes]]
+
+
+class SansIoCore(Protocol):
+    def handle(self, now_s: float, inbound: Datagrams) -> Datagrams: ...
+
+
+@dataclass
+class RunnerStats:
+    ticks: int = 0
+    datagrams_in: int = 0
+    datagrams_out: int = 0
+    unsent_no_peer: int = 0
+    unknown_endpoint_out: int = 0
+    late_ticks: int = 0
+
+
+class UdpRunner:
+    """Runs ``core`` against ``endpoints`` until ``stop()`` or ``until_s`` of sim time."""
+
+    def __init__(
+        self,
+        core: SansIoCore,
+        endpoints: Mapping[str, UdpEndpoint],
+        clock: MonotonicClock,
+        tick_s: float = 0.01,
+    ) -> None:
+        if tick_s <= 0:
+            raise ValueError(f"tick_s must be > 0, got {tick_s}")
+        self.core = core
+        self.endpoints = dict(endpoints)
+        self.clock = clock
+        self.tick_s = tick_s
+        self.stats = RunnerStats()
+        self._stopping = False
+        self._selector = selectors.DefaultSelector()
+        for name, endpoint in self.endpoints.items():
+            self._selector.register(endpoint.fileno(), selectors.EVENT_READ, name)
+
+    def stop(self) -> None:
+        self._stopping = True
+
+    def run(
+        self,
+        until_s: float | None = None,
+        on_tick: Callable[[float], None] | None = None,
+    ) -> float:
+        """Loop until stopped or ``until_s``; returns the last sim time handled."""
+        now_s = 0.0
+        next_tick_s = 0.0
+        while not self._stopping and (until_s is None or now_s < until_s):
+            wait_s = self.clock.wall_delay_s(next_tick_s - self.clock.now_s())
+            if wait_s > 0:
+                self._selector.select(timeout=wait_s)
+            now_s = self.clock.now_s()
+            if now_s < next_tick_s:
+                continue
+            if now_s - next_tick_s > 5 * self.tick_s:
+                self.stats.late_ticks += 1
+            if until_s is not None:
+                now_s = min(now_s, until_s)
+            self._step(now_s)
+            next_tick_s = (int(now_s / self.tick_s) + 1) * self.tick_s
+            if on_tick is not None:
+                on_tick(now_s)
+        return now_s
+
+    def _step(self, now_s: float) -> None:
+        inbound: Datagrams = []
+        for name, endpoint in self.endpoints.items():
+            for data, _addr in endpoint.recv_all():
+                inbound.append((name, data))
+        self.stats.datagrams_in += len(inbound)
+        outbound = self.core.handle(now_s, inbound)
+        for name, data in outbound:
+            self._send(name, data)
+        self.stats.ticks += 1
+
+    def _send(self, name: str, data: bytes) -> None:
+        endpoint = self.endpoints.get(name)
+        if endpoint is None:
+            self.stats.unknown_endpoint_out += 1
+            return
+        if endpoint.destination is None:
+            self.stats.unsent_no_peer += 1
+            return
+        try:
+            if endpoint.send(data):
+                self.stats.datagrams_out += 1
+        except UdpError as exc:
+            self.stats.unsent_no_peer += 1
+            logger.debug("%s: %s", name, exc)
+
+    def close(self) -> None:
+        self._selector.close()
+        for endpoint in self.endpoints.values():
+            endpoint.close()

@@ -1,0 +1,590 @@
+"""One simulated autopilot per vehicle that a MAVLink client takes for ArduCopter.
+
+Sans I/O: the backend hands it decoded domain messages and a per-tick ``VehicleSample``;
+it answers with domain messages and moves the vehicle through the ``Actuators`` protocol
+(arm, disarm, set_target). Its behaviour is data:
+
+- ``MODE_RULES``: per ArduCopter mode, whether arming is allowed, whether GUIDED targets are
+  accepted, and what the vehicle does in the air (``Behaviour``).
+- ``COMMAND_HANDLERS``: MAV_CMD -> handler; every COMMAND_LONG gets a COMMAND_ACK, with
+  MAV_RESULT_UNSUPPORTED for commands not in the table.
+- ``TAKEOFF_CHECKS`` and ``ARM_CHECKS``: ordered (predicate, result, reason) rows; the first
+  failing row decides the rejection, as ArduPilot's pre-arm and takeoff checks do.
+
+Frames: the vehicle's local NED frame is the tangent frame at its home (where it stood at
+start); the sim's truth is the scenario ENU frame. ``HomeFrame`` maps between them exactly
+(both are rigid transforms of ECEF).
+
+Behaviour that ArduCopter has and this does not: no RC input (STABILIZE and ALT_HOLD hold
+position in the air, like LOITER), no parameters, no missions except the scripted one a
+``Mission`` provides in AUTO (the spoofer's straight line).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from enum import Enum
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ridsafe.common import frames
+from ridsafe.common import messages as m
+from ridsafe.common.messages import CopterMode, MavCmd, MavResult
+from ridsafe.common.messages import PositionTargetMask as Mask
+
+logger = logging.getLogger(__name__)
+
+FloatArray = NDArray[np.float64]
+
+FORCE_DISARM_MAGIC = 21196.0
+_POSITION_BITS = Mask.X_IGNORE | Mask.Y_IGNORE | Mask.Z_IGNORE
+_VELOCITY_BITS = Mask.VX_IGNORE | Mask.VY_IGNORE | Mask.VZ_IGNORE
+_ACCEL_BITS = Mask.AX_IGNORE | Mask.AY_IGNORE | Mask.AZ_IGNORE
+
+
+@dataclass(frozen=True)
+class AutopilotConfig:
+    """ArduCopter-like behaviour constants (names after the ArduCopter parameters)."""
+
+    failsafe_timeout_s: float = 3.0  # GUIDED velocity target lapses -> hold position
+    rtl_alt_m: float = 15.0  # RTL_ALT
+    land_speed_m_s: float = 0.5  # LAND_SPEED, final descent
+    land_speed_high_m_s: float = 1.5  # LAND_SPEED_HIGH / WPNAV_SPEED_DN, above 10 m
+    land_final_alt_m: float = 10.0
+    rtl_speed_m_s: float = 5.0  # RTL_SPEED / WPNAV_SPEED
+    disarm_delay_s: float = 10.0  # DISARM_DELAY: armed on the ground without taking off
+    takeoff_alt_max_m: float = 500.0
+    max_target_distance_m: float = 50_000.0  # farther targets are rejected as out of range
+    max_target_speed_m_s: float = 100.0  # faster targets are rejected; <= this is clipped to 8
+    require_remote_id_to_arm: bool = False  # ArduPilot's DID_OPTIONS enforcement
+
+
+class Behaviour(Enum):
+    """What a mode makes the vehicle do once it is in the air."""
+
+    GUIDED = "follow targets"
+    HOLD = "hold position"
+    LAND = "descend and disarm"
+    RTL = "return home and land"
+    MISSION = "fly the scripted mission"
+
+
+@dataclass(frozen=True)
+class ModeRule:
+    """``guided_flag``: HEARTBEAT.base_mode carries MAV_MODE_FLAG_GUIDED_ENABLED (as
+    ArduCopter sets it for its position-controlled modes)."""
+
+    armable: bool
+    accepts_targets: bool
+    behaviour: Behaviour
+    guided_flag: bool
+
+
+MODE_RULES: dict[CopterMode, ModeRule] = {
+    CopterMode.STABILIZE: ModeRule(True, False, Behaviour.HOLD, guided_flag=False),
+    CopterMode.ALT_HOLD: ModeRule(True, False, Behaviour.HOLD, guided_flag=False),
+    CopterMode.GUIDED: ModeRule(True, True, Behaviour.GUIDED, guided_flag=True),
+    CopterMode.LOITER: ModeRule(True, False, Behaviour.HOLD, guided_flag=True),
+    CopterMode.AUTO: ModeRule(True, False, Behaviour.MISSION, guided_flag=True),
+    CopterMode.RTL: ModeRule(False, False, Behaviour.RTL, guided_flag=True),
+    CopterMode.LAND: ModeRule(False, False, Behaviour.LAND, guided_flag=False),
+    CopterMode.BRAKE: ModeRule(False, False, Behaviour.HOLD, guided_flag=True),
+}
+
+
+class Actuators(Protocol):
+    """What the autopilot may do to its vehicle (``OctorotorFleet`` provides it)."""
+
+    def arm(self, vehicle: int) -> None: ...
+    def disarm(self, vehicle: int) -> None: ...
+    def set_target(
+        self,
+        vehicle: int,
+        *,
+        position_enu_m: ArrayLike | None = None,
+        velocity_enu_m_s: ArrayLike | None = None,
+        yaw_rad: float | None = None,
+    ) -> None: ...
+
+
+class Mission(Protocol):
+    """A scripted flight for AUTO mode: the target at a given time."""
+
+    def target(self, now_s: float) -> tuple[FloatArray, FloatArray]:
+        """(position_enu_m (3,), velocity_enu_m_s (3,))."""
+        ...
+
+
+@dataclass(frozen=True)
+class VehicleSample:
+    """One vehicle's truth at a tick, in the scenario ENU frame."""
+
+    p_enu_m: FloatArray
+    v_enu_m_s: FloatArray
+    psi_rad: float
+    on_ground: bool
+
+
+class HomeFrame:
+    """Exact map between the scenario ENU frame and a vehicle's local NED frame at its home.
+
+    Both are rigid transforms of ECEF, so ``p_ned = R p_enu + t`` exactly; R and t are read
+    off the frames module by mapping the origin and three 1 km axis points.
+    """
+
+    def __init__(self, scenario_origin: frames.GeodeticOrigin, home_enu_m: ArrayLike) -> None:
+        home = np.asarray(home_enu_m, dtype=np.float64)
+        lat, lon, alt = frames.enu_to_geodetic(scenario_origin, home)
+        self.home_geodetic = frames.GeodeticOrigin(float(lat), float(lon), float(alt))
+        self.home_enu_m = home
+        probe = np.vstack([np.zeros(3), 1000.0 * np.eye(3)])
+        plat, plon, palt = frames.enu_to_geodetic(scenario_origin, probe)
+        ned = frames.geodetic_to_ned(self.home_geodetic, plat, plon, palt)
+        self._t = ned[0]
+        self._r = (ned[1:] - ned[0]).T / 1000.0  # columns: images of the ENU unit axes
+
+    def enu_to_local_ned(self, p_enu_m: ArrayLike) -> FloatArray:
+        """Scenario ENU position(s) (..., 3) -> local NED (..., 3)."""
+        out: FloatArray = np.asarray(p_enu_m, dtype=np.float64) @ self._r.T + self._t
+        return out
+
+    def local_ned_to_enu(self, p_ned_m: ArrayLike) -> FloatArray:
+        out: FloatArray = (np.asarray(p_ned_m, dtype=np.float64) - self._t) @ self._r
+        return out
+
+    def vel_enu_to_ned(self, v_enu_m_s: ArrayLike) -> FloatArray:
+        out: FloatArray = np.asarray(v_enu_m_s, dtype=np.float64) @ self._r.T
+        return out
+
+    def vel_ned_to_enu(self, v_ned_m_s: ArrayLike) -> FloatArray:
+        out: FloatArray = np.asarray(v_ned_m_s, dtype=np.float64) @ self._r
+        return out
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """A command's result and, for rejections, the reason ArduPilot would print."""
+
+    result: MavResult
+    reason: str = ""
+
+
+ACCEPTED = Outcome(MavResult.ACCEPTED)
+
+
+class TelemetryControl(Protocol):
+    """The requesting link's telemetry schedule (MAV_CMD_SET_MESSAGE_INTERVAL and friends)."""
+
+    def set_interval(self, msg_id: int, interval_us: float) -> bool: ...
+    def request_once(self, msg_id: int) -> bool: ...
+
+
+@dataclass(frozen=True)
+class CommandContext:
+    now_s: float
+    sample: VehicleSample
+    telemetry: TelemetryControl
+
+
+Handler = Callable[["Autopilot", m.CommandLong, CommandContext], Outcome]
+Check = tuple[Callable[["Autopilot", CommandContext], bool], MavResult, str]
+
+
+class Autopilot:
+    """Modes, arming, commands, GUIDED targets and failsafes of one vehicle (index ``vehicle``)."""
+
+    def __init__(
+        self,
+        sysid: int,
+        vehicle: int,
+        home: HomeFrame,
+        actuators: Actuators,
+        config: AutopilotConfig | None = None,
+        mission: Mission | None = None,
+        remote_id_error: Callable[[float], str | None] | None = None,
+    ) -> None:
+        self.sysid = sysid
+        self.vehicle = vehicle
+        self.home = home
+        self.config = config if config is not None else AutopilotConfig()
+        self.mission = mission
+        self._actuators = actuators
+        self._remote_id_error = remote_id_error
+        self.mode = CopterMode.STABILIZE
+        self.armed = False
+        self.takeoff_alt_enu_m: float | None = None
+        self.last_target_s = -math.inf
+        self.target_has_velocity = False
+        self.armed_at_s = 0.0
+        self.landed_since_s: float | None = None
+        self.failsafe_active = False
+        self.rejected_targets = 0
+        self._hold_enu_m: FloatArray | None = None
+        self._status: list[m.StatusText] = []
+
+    # -- what the vehicle says ------------------------------------------------------------
+
+    def heartbeat(self) -> m.Heartbeat:
+        base = (
+            m.MavModeFlag.CUSTOM_MODE_ENABLED
+            | m.MavModeFlag.STABILIZE_ENABLED
+            | m.MavModeFlag.MANUAL_INPUT_ENABLED
+        )
+        if MODE_RULES[self.mode].guided_flag:
+            base |= m.MavModeFlag.GUIDED_ENABLED
+        if self.armed:
+            base |= m.MavModeFlag.SAFETY_ARMED
+        state = m.MavState.ACTIVE if self.armed else m.MavState.STANDBY
+        return m.Heartbeat(
+            m.MavType.OCTOROTOR, m.MavAutopilot.ARDUPILOTMEGA, int(base), int(self.mode), state
+        )
+
+    def take_status(self) -> list[m.StatusText]:
+        """STATUSTEXT messages produced since the last call."""
+        out, self._status = self._status, []
+        return out
+
+    def _say(self, severity: m.MavSeverity, text: str) -> None:
+        logger.info("vehicle %d: %s", self.sysid, text)
+        self._status.append(m.StatusText(int(severity), text[:50]))
+
+    # -- commands --------------------------------------------------------------------------
+
+    def handle_command(self, cmd: m.CommandLong, ctx: CommandContext) -> m.CommandAck:
+        handler = COMMAND_HANDLERS.get(cmd.command)
+        if handler is None:
+            outcome = Outcome(MavResult.UNSUPPORTED, f"Unsupported command {cmd.command}")
+        else:
+            outcome = handler(self, cmd, ctx)
+        if outcome.result is not MavResult.ACCEPTED and outcome.reason:
+            self._say(m.MavSeverity.WARNING, outcome.reason)
+        return m.CommandAck(cmd.command, int(outcome.result), 0, 0)
+
+    def handle_set_mode(self, msg: m.SetMode, ctx: CommandContext) -> m.CommandAck:
+        """Legacy SET_MODE; ArduPilot answers it with a COMMAND_ACK for command id 11."""
+        outcome = self.set_mode(msg.custom_mode, ctx)
+        if outcome.reason:
+            self._say(m.MavSeverity.WARNING, outcome.reason)
+        return m.CommandAck(11, int(outcome.result), 0, 0)
+
+    def set_mode(self, custom_mode: float, ctx: CommandContext) -> Outcome:
+        if not math.isfinite(custom_mode) or int(custom_mode) != custom_mode:
+            return Outcome(MavResult.DENIED, f"Invalid mode {custom_mode}")
+        try:
+            mode = CopterMode(int(custom_mode))
+        except ValueError:
+            return Outcome(MavResult.FAILED, f"Mode change to {int(custom_mode)} failed")
+        if mode not in MODE_RULES:
+            return Outcome(MavResult.FAILED, f"Mode change to {mode.name} failed")
+        if MODE_RULES[mode].behaviour is Behaviour.MISSION and self.mission is None:
+            return Outcome(MavResult.FAILED, "Mode change to AUTO failed: no mission")
+        if mode is not self.mode:
+            self.mode = mode
+            self.failsafe_active = False
+            self._hold_enu_m = ctx.sample.p_enu_m.copy()
+            self._say(m.MavSeverity.INFO, f"Mode {mode.name}")
+        return ACCEPTED
+
+    def arm(self, ctx: CommandContext) -> Outcome:
+        if self.armed:
+            return ACCEPTED
+        for predicate, result, reason in ARM_CHECKS:
+            if not predicate(self, ctx):
+                return Outcome(result, reason)
+        self.armed = True
+        self.armed_at_s = ctx.now_s
+        self.takeoff_alt_enu_m = None
+        self._hold_enu_m = ctx.sample.p_enu_m.copy()
+        self._actuators.set_target(
+            self.vehicle, position_enu_m=ctx.sample.p_enu_m, yaw_rad=ctx.sample.psi_rad
+        )
+        self._actuators.arm(self.vehicle)
+        self._say(m.MavSeverity.INFO, "Arming motors")
+        return ACCEPTED
+
+    def disarm(self, force: bool, ctx: CommandContext) -> Outcome:
+        if not self.armed:
+            return ACCEPTED
+        if not ctx.sample.on_ground and not force:
+            return Outcome(MavResult.FAILED, "Disarm: vehicle is flying")
+        self._disarm(ctx.now_s)
+        return ACCEPTED
+
+    def _disarm(self, now_s: float) -> None:
+        self.armed = False
+        self.takeoff_alt_enu_m = None
+        self._actuators.disarm(self.vehicle)
+        self._say(m.MavSeverity.INFO, f"Disarming motors at {now_s:.1f} s")
+
+    def takeoff(self, alt_rel_m: float, ctx: CommandContext) -> Outcome:
+        for predicate, result, reason in TAKEOFF_CHECKS:
+            if not predicate(self, ctx):
+                return Outcome(result, reason)
+        if not (math.isfinite(alt_rel_m) and 0.0 < alt_rel_m <= self.config.takeoff_alt_max_m):
+            return Outcome(MavResult.DENIED, f"Takeoff: altitude {alt_rel_m} out of range")
+        self.takeoff_alt_enu_m = float(self.home.home_enu_m[2] + alt_rel_m)
+        target = ctx.sample.p_enu_m.copy()
+        target[2] = self.takeoff_alt_enu_m
+        self._actuators.set_target(self.vehicle, position_enu_m=target, yaw_rad=ctx.sample.psi_rad)
+        self.last_target_s = ctx.now_s
+        self.target_has_velocity = False
+        self._say(m.MavSeverity.INFO, f"Takeoff to {alt_rel_m:.1f} m")
+        return ACCEPTED
+
+    # -- GUIDED targets --------------------------------------------------------------------
+
+    def handle_position_target(self, msg: m.SetPositionTargetLocalNed, ctx: CommandContext) -> bool:
+        """Apply a SET_POSITION_TARGET_LOCAL_NED; False (logged, counted) if rejected.
+
+        ArduPilot sends no ACK for setpoints; a rejection is a STATUSTEXT and a count.
+        """
+        reason = self._target_rejection(msg, ctx)
+        if reason is not None:
+            self.rejected_targets += 1
+            self._say(m.MavSeverity.WARNING, reason)
+            return False
+        mask = Mask(msg.type_mask)
+        position = velocity = None
+        if not mask & _POSITION_BITS:
+            p_ned = np.asarray(msg.p_ned_m, dtype=np.float64)
+            if msg.coordinate_frame == m.MavFrame.LOCAL_OFFSET_NED:
+                p_ned = p_ned + self.home.enu_to_local_ned(ctx.sample.p_enu_m)
+            position = self.home.local_ned_to_enu(p_ned)
+        if not mask & _VELOCITY_BITS:
+            velocity = self.home.vel_ned_to_enu(msg.v_ned_m_s)
+        yaw = None if mask & Mask.YAW_IGNORE else frames.wrap_pi(math.pi / 2 - msg.yaw_rad)
+        if yaw is None:
+            yaw = ctx.sample.psi_rad
+        self._actuators.set_target(
+            self.vehicle, position_enu_m=position, velocity_enu_m_s=velocity, yaw_rad=yaw
+        )
+        self.takeoff_alt_enu_m = None
+        self.last_target_s = ctx.now_s
+        self.target_has_velocity = velocity is not None
+        self.failsafe_active = False
+        return True
+
+    def _target_rejection(
+        self, msg: m.SetPositionTargetLocalNed, ctx: CommandContext
+    ) -> str | None:
+        if not MODE_RULES[self.mode].accepts_targets:
+            return f"Target ignored: mode {self.mode.name} is not GUIDED"
+        if not self.armed or (ctx.sample.on_ground and self.takeoff_alt_enu_m is None):
+            return "Target ignored: not flying (arm and take off first)"
+        if msg.coordinate_frame not in (m.MavFrame.LOCAL_NED, m.MavFrame.LOCAL_OFFSET_NED):
+            return f"Target ignored: frame {msg.coordinate_frame} unsupported"
+        return _mask_rejection(msg, self.config)
+
+    # -- every tick ------------------------------------------------------------------------
+
+    def update(self, now_s: float, sample: VehicleSample) -> None:
+        """Mode behaviour, failsafe, land detection and auto-disarm."""
+        if not self.armed:
+            return
+        if sample.on_ground:
+            self._on_ground(now_s)
+        else:
+            self.landed_since_s = None
+        behaviour = MODE_RULES[self.mode].behaviour
+        if behaviour is Behaviour.GUIDED:
+            self._guided_failsafe(now_s, sample)
+        elif behaviour is Behaviour.LAND:
+            self._land(sample)
+        elif behaviour is Behaviour.RTL:
+            self._rtl(sample)
+        elif behaviour is Behaviour.MISSION and self.mission is not None:
+            position, velocity = self.mission.target(now_s)
+            self._actuators.set_target(
+                self.vehicle, position_enu_m=position, velocity_enu_m_s=velocity
+            )
+
+    def _on_ground(self, now_s: float) -> None:
+        if self.landed_since_s is None:
+            self.landed_since_s = now_s
+        landed_for = now_s - self.landed_since_s
+        landing = MODE_RULES[self.mode].behaviour in (Behaviour.LAND, Behaviour.RTL)
+        idle = (
+            self.takeoff_alt_enu_m is None
+            and min(landed_for, now_s - self.armed_at_s) >= self.config.disarm_delay_s
+        )
+        if (landing and landed_for >= 1.0) or idle:
+            self._disarm(now_s)
+
+    def _guided_failsafe(self, now_s: float, sample: VehicleSample) -> None:
+        lapsed = now_s - self.last_target_s > self.config.failsafe_timeout_s
+        if self.target_has_velocity and lapsed and not self.failsafe_active:
+            self.failsafe_active = True
+            self.target_has_velocity = False
+            self._actuators.set_target(
+                self.vehicle, position_enu_m=sample.p_enu_m, yaw_rad=sample.psi_rad
+            )
+            self._say(
+                m.MavSeverity.WARNING,
+                f"No target for {self.config.failsafe_timeout_s:g} s: holding position",
+            )
+
+    def _land(self, sample: VehicleSample) -> None:
+        height = sample.p_enu_m[2] - self.home.home_enu_m[2]
+        speed = (
+            self.config.land_speed_high_m_s
+            if height > self.config.land_final_alt_m
+            else self.config.land_speed_m_s
+        )
+        hold = self._hold_enu_m if self._hold_enu_m is not None else sample.p_enu_m
+        self._actuators.set_target(
+            self.vehicle,
+            position_enu_m=np.array([hold[0], hold[1], sample.p_enu_m[2]]),
+            velocity_enu_m_s=np.array([0.0, 0.0, -speed]),
+            yaw_rad=sample.psi_rad,
+        )
+
+    def _rtl(self, sample: VehicleSample) -> None:
+        home = self.home.home_enu_m
+        rtl_z = max(home[2] + self.config.rtl_alt_m, float(sample.p_enu_m[2]))
+        offset = home[:2] - sample.p_enu_m[:2]
+        distance = float(np.hypot(*offset))
+        if distance < 2.0:
+            self.mode = CopterMode.LAND
+            self._hold_enu_m = np.array([home[0], home[1], sample.p_enu_m[2]])
+            self._say(m.MavSeverity.INFO, "RTL: home reached, landing")
+            return
+        climbing = sample.p_enu_m[2] < rtl_z - 1.0
+        target = sample.p_enu_m.copy() if climbing else np.array([home[0], home[1], rtl_z])
+        target[2] = rtl_z
+        velocity = np.zeros(3)
+        if not climbing:
+            velocity[:2] = offset / distance * min(self.config.rtl_speed_m_s, distance / 2.0)
+        self._actuators.set_target(self.vehicle, position_enu_m=target, velocity_enu_m_s=velocity)
+
+
+def _used(mask: Mask, bits: Mask) -> bool | None:
+    """True if all three axes are used, False if all ignored, None if mixed."""
+    ignored = mask & bits
+    if ignored == bits:
+        return False
+    return True if not ignored else None
+
+
+def _mask_rejection(msg: m.SetPositionTargetLocalNed, config: AutopilotConfig) -> str | None:
+    mask = Mask(msg.type_mask)
+    used_pos, used_vel = _used(mask, _POSITION_BITS), _used(mask, _VELOCITY_BITS)
+    if used_pos is None or used_vel is None:
+        return f"Target ignored: type_mask {msg.type_mask} mixes used and ignored axes"
+    if (mask & _ACCEL_BITS) != _ACCEL_BITS:
+        return f"Target ignored: type_mask {msg.type_mask}: acceleration unsupported"
+    if not (used_pos or used_vel):
+        return f"Target ignored: type_mask {msg.type_mask} uses neither position nor velocity"
+    return _value_rejection(msg, used_pos, used_vel, config)
+
+
+def _value_rejection(
+    msg: m.SetPositionTargetLocalNed, used_pos: bool, used_vel: bool, config: AutopilotConfig
+) -> str | None:
+    values: list[float] = []
+    if used_pos:
+        values.extend(msg.p_ned_m)
+    if used_vel:
+        values.extend(msg.v_ned_m_s)
+    if not (Mask(msg.type_mask) & Mask.YAW_IGNORE):
+        values.append(msg.yaw_rad)
+    if not all(math.isfinite(v) for v in values):
+        return "Target ignored: NaN or infinite value in a used field"
+    if used_pos and max(abs(v) for v in msg.p_ned_m) > config.max_target_distance_m:
+        return f"Target ignored: position {msg.p_ned_m} out of range"
+    if used_vel and math.hypot(*msg.v_ned_m_s) > config.max_target_speed_m_s:
+        return f"Target ignored: speed {math.hypot(*msg.v_ned_m_s):.3g} m/s out of range"
+    return None
+
+
+# --- the tables -------------------------------------------------------------------------------
+
+ARM_CHECKS: tuple[Check, ...] = (
+    (
+        lambda ap, ctx: MODE_RULES[ap.mode].armable,
+        MavResult.FAILED,
+        "Arm: Mode not armable",
+    ),
+    (
+        lambda ap, ctx: ctx.sample.on_ground,
+        MavResult.FAILED,
+        "Arm: vehicle is not on the ground",
+    ),
+    (
+        lambda ap, ctx: (
+            ap._remote_id_error is None
+            or not ap.config.require_remote_id_to_arm
+            or ap._remote_id_error(ctx.now_s) is None
+        ),
+        MavResult.FAILED,
+        "PreArm: Remote ID not ready",
+    ),
+)
+
+TAKEOFF_CHECKS: tuple[Check, ...] = (
+    (lambda ap, ctx: ap.armed, MavResult.FAILED, "Takeoff: vehicle is disarmed"),
+    (
+        lambda ap, ctx: MODE_RULES[ap.mode].accepts_targets,
+        MavResult.FAILED,
+        "Takeoff: mode is not GUIDED",
+    ),
+    (lambda ap, ctx: ctx.sample.on_ground, MavResult.FAILED, "Takeoff: already flying"),
+)
+
+
+def _cmd_arm_disarm(ap: Autopilot, cmd: m.CommandLong, ctx: CommandContext) -> Outcome:
+    arm, force = cmd.params[0], cmd.params[1]
+    if arm == 1.0:
+        return ap.arm(ctx)
+    if arm == 0.0:
+        return ap.disarm(force == FORCE_DISARM_MAGIC, ctx)
+    return Outcome(MavResult.DENIED, f"Arm/disarm: param1 {arm} is neither 0 nor 1")
+
+
+def _cmd_takeoff(ap: Autopilot, cmd: m.CommandLong, ctx: CommandContext) -> Outcome:
+    return ap.takeoff(cmd.params[6], ctx)
+
+
+def _cmd_set_mode(ap: Autopilot, cmd: m.CommandLong, ctx: CommandContext) -> Outcome:
+    if not int(cmd.params[0]) & m.MavModeFlag.CUSTOM_MODE_ENABLED:
+        return Outcome(MavResult.DENIED, "Set mode: only custom modes are supported")
+    return ap.set_mode(cmd.params[1], ctx)
+
+
+def _cmd_land(ap: Autopilot, cmd: m.CommandLong, ctx: CommandContext) -> Outcome:
+    return ap.set_mode(CopterMode.LAND, ctx)
+
+
+def _cmd_rtl(ap: Autopilot, cmd: m.CommandLong, ctx: CommandContext) -> Outcome:
+    return ap.set_mode(CopterMode.RTL, ctx)
+
+
+def _cmd_message_interval(ap: Autopilot, cmd: m.CommandLong, ctx: CommandContext) -> Outcome:
+    msg_id, interval_us = cmd.params[0], cmd.params[1]
+    if not (math.isfinite(msg_id) and math.isfinite(interval_us)):
+        return Outcome(MavResult.DENIED, "Message interval: non-finite parameter")
+    if ctx.telemetry.set_interval(int(msg_id), interval_us):
+        return ACCEPTED
+    return Outcome(MavResult.FAILED, f"Message interval: message {int(msg_id)} not streamed")
+
+
+def _cmd_request_message(ap: Autopilot, cmd: m.CommandLong, ctx: CommandContext) -> Outcome:
+    msg_id = cmd.params[0]
+    if math.isfinite(msg_id) and ctx.telemetry.request_once(int(msg_id)):
+        return ACCEPTED
+    return Outcome(MavResult.FAILED, f"Request message: {msg_id} not available")
+
+
+COMMAND_HANDLERS: dict[int, Handler] = {
+    MavCmd.COMPONENT_ARM_DISARM: _cmd_arm_disarm,
+    MavCmd.NAV_TAKEOFF: _cmd_takeoff,
+    MavCmd.DO_SET_MODE: _cmd_set_mode,
+    MavCmd.NAV_LAND: _cmd_land,
+    MavCmd.NAV_RETURN_TO_LAUNCH: _cmd_rtl,
+    MavCmd.SET_MESSAGE_INTERVAL: _cmd_message_interval,
+    MavCmd.REQUEST_MESSAGE: _cmd_request_message,
+}

@@ -1,0 +1,186 @@
+"""Autopilot telemetry: which messages a link streams at which rate, and their contents.
+
+``TelemetrySchedule`` is one link's stream table (message id -> interval), changed by
+MAV_CMD_SET_MESSAGE_INTERVAL and MAV_CMD_REQUEST_MESSAGE as on ArduPilot. ``FleetSnapshot``
+turns the fleet's truth (scenario ENU, body FLU) into what MAVLink reports (WGS-84, each
+vehicle's local NED at its home, body FRD), once per tick for all vehicles.
+
+Altitudes: the sim has no geoid, so "MSL" altitudes are WGS-84 ellipsoid heights.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ridsafe.common import frames
+from ridsafe.common import messages as m
+from ridsafe.common.dialect import ridsafe_v20 as ids
+from ridsafe.sim_backend.autopilot import HomeFrame
+from ridsafe.sim_backend.dynamics import BODY_RATES, EULER, POS_ENU, VEL_ENU
+
+FloatArray = NDArray[np.float64]
+
+HEARTBEAT = ids.MAVLINK_MSG_ID_HEARTBEAT
+SYS_STATUS = ids.MAVLINK_MSG_ID_SYS_STATUS
+SYSTEM_TIME = ids.MAVLINK_MSG_ID_SYSTEM_TIME
+ATTITUDE = ids.MAVLINK_MSG_ID_ATTITUDE
+LOCAL_POSITION_NED = ids.MAVLINK_MSG_ID_LOCAL_POSITION_NED
+GLOBAL_POSITION_INT = ids.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
+HOME_POSITION = ids.MAVLINK_MSG_ID_HOME_POSITION
+
+# Gyro, accel, mag, baro, GPS, motor outputs, AHRS: present, enabled, healthy.
+_SENSORS = 0x1 | 0x2 | 0x4 | 0x8 | 0x20 | 0x8000 | 0x200000
+_BATTERY_V = 25.2  # 6S full; the sim has no battery model
+
+
+@dataclass(frozen=True)
+class TelemetryRatesHz:
+    """Default stream rates of every autopilot link (0 = off)."""
+
+    heartbeat: float = 1.0
+    global_position_int: float = 10.0
+    local_position_ned: float = 10.0
+    attitude: float = 4.0
+    sys_status: float = 1.0
+    system_time: float = 1.0
+    home_position: float = 0.5
+
+    def __post_init__(self) -> None:
+        for name, value in self.by_id_name():
+            if not (math.isfinite(value) and 0.0 <= value <= 400.0):
+                raise ValueError(f"{name}: expected 0..400 Hz, got {value}")
+
+    def by_id_name(self) -> list[tuple[str, float]]:
+        return [(name, getattr(self, name)) for name in _STREAM_IDS]
+
+    def by_id(self) -> dict[int, float]:
+        return {_STREAM_IDS[name]: rate for name, rate in self.by_id_name()}
+
+
+_STREAM_IDS: dict[str, int] = {
+    "heartbeat": HEARTBEAT,
+    "global_position_int": GLOBAL_POSITION_INT,
+    "local_position_ned": LOCAL_POSITION_NED,
+    "attitude": ATTITUDE,
+    "sys_status": SYS_STATUS,
+    "system_time": SYSTEM_TIME,
+    "home_position": HOME_POSITION,
+}
+
+
+@dataclass
+class TelemetrySchedule:
+    """One link's streams: message id -> interval (s, inf = off) and next due time."""
+
+    defaults_hz: dict[int, float]
+    interval_s: dict[int, float] = field(init=False)
+    next_due_s: dict[int, float] = field(init=False)
+    requested: set[int] = field(default_factory=set)
+
+    def __post_init__(self) -> None:
+        self.interval_s = {k: _interval(hz) for k, hz in self.defaults_hz.items()}
+        self.next_due_s = dict.fromkeys(self.defaults_hz, 0.0)
+
+    def set_interval(self, msg_id: int, interval_us: float) -> bool:
+        """MAV_CMD_SET_MESSAGE_INTERVAL: -1 off, 0 default, else the interval in us."""
+        if msg_id not in self.interval_s:
+            return False
+        if interval_us < 0:
+            self.interval_s[msg_id] = math.inf
+        elif interval_us == 0:
+            self.interval_s[msg_id] = _interval(self.defaults_hz[msg_id])
+        else:
+            self.interval_s[msg_id] = max(interval_us * 1e-6, 0.0025)
+            self.next_due_s[msg_id] = 0.0
+        return True
+
+    def request_once(self, msg_id: int) -> bool:
+        if msg_id not in self.interval_s:
+            return False
+        self.requested.add(msg_id)
+        return True
+
+    def due(self, now_s: float) -> list[int]:
+        """Message ids to send now (each at most once per call), in a fixed order."""
+        out = []
+        for msg_id, interval in self.interval_s.items():
+            if msg_id in self.requested or (
+                interval != math.inf and now_s >= self.next_due_s[msg_id] - 1e-9
+            ):
+                out.append(msg_id)
+                if interval != math.inf:
+                    # keep the phase; skip missed slots instead of bursting
+                    slots = max(1, math.floor((now_s - self.next_due_s[msg_id]) / interval) + 1)
+                    self.next_due_s[msg_id] += slots * interval
+        self.requested.clear()
+        return out
+
+
+def _interval(rate_hz: float) -> float:
+    return math.inf if rate_hz <= 0 else 1.0 / rate_hz
+
+
+class FleetSnapshot:
+    """Every vehicle's truth at one tick, converted to what its autopilot reports."""
+
+    def __init__(
+        self,
+        now_s: float,
+        unix_s: float,
+        state: FloatArray,
+        homes: Sequence[HomeFrame],
+        origin: frames.GeodeticOrigin,
+    ) -> None:
+        self.now_s = now_s
+        self.unix_s = unix_s
+        self.p_enu_m = state[:, POS_ENU]
+        self.v_enu_m_s = state[:, VEL_ENU]
+        self.euler_rad = state[:, EULER]
+        self.rates_flu_rad_s = state[:, BODY_RATES]
+        self.homes = homes
+        self.lat_deg, self.lon_deg, self.alt_m = frames.enu_to_geodetic(origin, self.p_enu_m)
+
+    def global_position_int(self, i: int) -> m.GlobalPositionInt:
+        home = self.homes[i]
+        v_ned = home.vel_enu_to_ned(self.v_enu_m_s[i])
+        yaw_deg = math.degrees(frames.wrap_pi(math.pi / 2 - float(self.euler_rad[i, 2]))) % 360.0
+        return m.GlobalPositionInt(
+            self.now_s,
+            float(self.lat_deg[i]),
+            float(self.lon_deg[i]),
+            float(self.alt_m[i]),
+            float(self.alt_m[i] - home.home_geodetic.alt_m),
+            (float(v_ned[0]), float(v_ned[1]), float(v_ned[2])),
+            yaw_deg,
+        )
+
+    def local_position_ned(self, i: int) -> m.LocalPositionNed:
+        home = self.homes[i]
+        p = home.enu_to_local_ned(self.p_enu_m[i])
+        v = home.vel_enu_to_ned(self.v_enu_m_s[i])
+        return m.LocalPositionNed(
+            self.now_s,
+            (float(p[0]), float(p[1]), float(p[2])),
+            (float(v[0]), float(v[1]), float(v[2])),
+        )
+
+    def attitude(self, i: int) -> m.Attitude:
+        phi, theta, psi = (float(a) for a in self.euler_rad[i])
+        roll, pitch, yaw = frames.attitude_sim_to_mavlink(phi, theta, psi)
+        p, q, r = frames.body_rates_flu_to_frd(*(float(w) for w in self.rates_flu_rad_s[i]))
+        return m.Attitude(self.now_s, roll, pitch, yaw, (p, q, r))
+
+    def sys_status(self, _i: int) -> m.SysStatus:
+        return m.SysStatus(_SENSORS, _SENSORS, _SENSORS, 15.0, _BATTERY_V, 100)
+
+    def system_time(self, _i: int) -> m.SystemTime:
+        return m.SystemTime(self.unix_s, self.now_s)
+
+    def home_position(self, i: int) -> m.HomePosition:
+        home = self.homes[i].home_geodetic
+        return m.HomePosition(home.lat_deg, home.lon_deg, home.alt_m, (0.0, 0.0, 0.0))

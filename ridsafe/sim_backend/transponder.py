@@ -1,0 +1,142 @@
+"""A vehicle's Remote ID transponder: MAVLink component 236 (MAV_COMP_ID_ODID_TXRX_1).
+
+Transmit: an OPEN_DRONE_ID_* message from the companion is encoded to its 25-byte ASTM F3411
+form (rejected inputs are logged and counted, never put on the air) and handed to the radio.
+Receive: a frame from the air is decoded and handed to the companion as the matching
+OPEN_DRONE_ID_* message with ``id_or_mac`` set to the sender's radio id, followed by a
+RIDSAFE_RID_RSSI with its signal strength and receive time. Quantisation on the air is
+therefore real: receivers see exactly what F3411 can carry.
+
+ARM_STATUS follows ArduPilot's expectation: ready (status 0) once the companion has sent
+BASIC_ID, SYSTEM and LOCATION within the last 3 s, otherwise status 1 with the reason.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+from ridsafe.common import codec, f3411
+from ridsafe.common import messages as m
+from ridsafe.common.errors import RidsafeError
+
+logger = logging.getLogger(__name__)
+
+TRANSPONDER_COMPONENT = 236
+ARM_STATUS_MAX_AGE_S = 3.0
+
+_BROADCAST_TYPES = (
+    m.OdidBasicId,
+    m.OdidLocation,
+    m.OdidSystem,
+    m.OdidOperatorId,
+    m.OdidSelfId,
+    m.OdidRaw,
+)
+_REQUIRED_FOR_ARMING = {"OPEN_DRONE_ID_BASIC_ID", "OPEN_DRONE_ID_SYSTEM", "OPEN_DRONE_ID_LOCATION"}
+
+
+@dataclass
+class TransponderCounters:
+    sent: int = 0
+    encode_rejected: int = 0
+    received: int = 0
+    decode_failed: int = 0
+
+
+class Transponder:
+    """Sans-I/O RID transponder of vehicle ``sysid`` whose radio id is ``radio_id``."""
+
+    def __init__(self, sysid: int, radio_id: bytes) -> None:
+        self.sysid = sysid
+        self.radio_id = radio_id
+        self.counters = TransponderCounters()
+        self._last_from_companion_s: dict[str, float] = {}
+        self._system: m.OdidSystem | None = None
+
+    def heartbeat(self) -> m.Heartbeat:
+        return m.Heartbeat(m.MavType.ODID, m.MavAutopilot.INVALID, 0, 0, int(m.MavState.ACTIVE))
+
+    def on_message(self, now_s: float, message: m.Message) -> bytes | None:
+        """An ODID message from the companion; returns the F3411 frame to put on the air."""
+        if isinstance(message, m.OdidSystemUpdate):
+            updated = self._apply_system_update(message)
+            if updated is None:
+                return None
+            message = updated
+        if not isinstance(message, _BROADCAST_TYPES):
+            return None
+        name, fields = codec.odid_fields(message)
+        try:
+            frame = f3411.encode(name, fields)
+        except RidsafeError as exc:
+            self.counters.encode_rejected += 1
+            logger.warning("transponder %d: not broadcasting %s: %s", self.sysid, name, exc)
+            return None
+        self._last_from_companion_s[name] = now_s
+        if isinstance(message, m.OdidSystem):
+            self._system = message
+        self.counters.sent += 1
+        return frame
+
+    def _apply_system_update(self, update: m.OdidSystemUpdate) -> m.OdidSystem | None:
+        """SYSTEM_UPDATE refreshes the operator location of the last full SYSTEM message."""
+        if self._system is None:
+            logger.info("transponder %d: SYSTEM_UPDATE before any SYSTEM, ignored", self.sysid)
+            return None
+        s = self._system
+        return m.OdidSystem(
+            s.id_or_mac,
+            s.operator_location_type,
+            s.classification_type,
+            update.operator_lat_deg,
+            update.operator_lon_deg,
+            s.area_count,
+            s.area_radius_m,
+            s.area_ceiling_m,
+            s.area_floor_m,
+            s.category_eu,
+            s.class_eu,
+            update.operator_alt_geo_m,
+            update.timestamp_s,
+        )
+
+    def receive(
+        self, now_s: float, frame: bytes, sender_id: bytes, rssi_dbm: float
+    ) -> list[m.Message]:
+        """A frame heard on the air -> OPEN_DRONE_ID_* (+ RIDSAFE_RID_RSSI) for the companion."""
+        try:
+            is_pack = f3411.message_type(frame) is f3411.MessageType.MESSAGE_PACK
+            parts = f3411.split_pack(frame) if is_pack else [frame]
+            decoded = [(f3411.decode(part), int(f3411.message_type(part))) for part in parts]
+        except RidsafeError as exc:
+            self.counters.decode_failed += 1
+            logger.warning("transponder %d: undecodable frame: %s", self.sysid, exc)
+            return []
+        out: list[m.Message] = []
+        for (name, fields), msg_type in decoded:
+            tagged = dict(fields, id_or_mac=list(sender_id.ljust(20, b"\x00")))
+            try:
+                message = codec.message_from_fields(name, tagged)
+            except (RidsafeError, ValueError, TypeError) as exc:
+                self.counters.decode_failed += 1
+                logger.warning("transponder %d: cannot hand over %s: %s", self.sysid, name, exc)
+                continue
+            self.counters.received += 1
+            out.append(message)
+            out.append(m.RidRssi(now_s, rssi_dbm, sender_id, msg_type))
+        return out
+
+    def arm_status(self, now_s: float) -> m.OdidArmStatus:
+        missing = sorted(
+            name.removeprefix("OPEN_DRONE_ID_")
+            for name in _REQUIRED_FOR_ARMING
+            if now_s - self._last_from_companion_s.get(name, -1e9) > ARM_STATUS_MAX_AGE_S
+        )
+        if missing:
+            return m.OdidArmStatus(1, f"missing {','.join(missing)}"[:50])
+        return m.OdidArmStatus(0, "")
+
+    def ready_error(self, now_s: float) -> str | None:
+        status = self.arm_status(now_s)
+        return status.error if status.status else None

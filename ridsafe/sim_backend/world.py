@@ -1,0 +1,424 @@
+"""The sim backend core, sans I/O: ``handle(now_s, inbound) -> outbound``.
+
+One ``SimBackend`` holds every vehicle of a scenario (benign aircraft 1..N, the spoofer
+N + 1), each with an ArduCopter-like autopilot and a Remote ID transponder, and the radio
+channel between the transponders. It speaks MAVLink bytes on named endpoints:
+
+- ``v{i}/companion``: vehicle i's companion-computer link (autopilot compid 1 and
+  transponder compid 236 share it);
+- ``v{i}/gcs``: vehicle i's ground-station stream (autopilot only), SITL's ``--out``.
+
+A runner (UDP, lockstep) maps endpoint names to sockets or to in-memory peers. Each call:
+
+1. parse inbound bytes per endpoint; route commands, setpoints and RID messages;
+2. advance physics and controllers of all vehicles to ``now_s`` (one compiled call);
+3. run every autopilot's mode logic; let the spoofer broadcast;
+4. carry this tick's RID frames over the radio to the other transponders;
+5. emit due telemetry, heartbeats, STATUSTEXTs; return bytes per endpoint.
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+import math
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ridsafe.common import codec, rng
+from ridsafe.common import messages as m
+from ridsafe.common.errors import ClockError
+from ridsafe.common.scenario import Scenario
+from ridsafe.sim_backend import telemetry
+from ridsafe.sim_backend.autopilot import (
+    Autopilot,
+    CommandContext,
+    HomeFrame,
+    VehicleSample,
+)
+from ridsafe.sim_backend.config import SimConfig
+from ridsafe.sim_backend.dynamics import EULER, IDX_PSI, POS_ENU, STATE_SIZE, VEL_ENU
+from ridsafe.sim_backend.radio import RadioChannel, Reception, Transmission
+from ridsafe.sim_backend.spoofer import SpooferBroadcaster, StraightLineMission
+from ridsafe.sim_backend.telemetry import FleetSnapshot, TelemetrySchedule
+from ridsafe.sim_backend.transponder import TRANSPONDER_COMPONENT, Transponder
+from ridsafe.sim_backend.vehicles import OctorotorFleet
+
+logger = logging.getLogger(__name__)
+
+FloatArray = NDArray[np.float64]
+AUTOPILOT_COMPONENT = 1
+MAX_DATAGRAM_BYTES = 1400
+_ODID_INBOUND = (
+    m.OdidBasicId,
+    m.OdidLocation,
+    m.OdidSystem,
+    m.OdidSystemUpdate,
+    m.OdidOperatorId,
+    m.OdidSelfId,
+    m.OdidRaw,
+)
+
+
+class EndpointKind(enum.Enum):
+    COMPANION = "companion"
+    GCS = "gcs"
+
+
+def endpoint_name(sysid: int, kind: EndpointKind) -> str:
+    return f"v{sysid}/{kind.value}"
+
+
+@dataclass
+class _Endpoint:
+    name: str
+    sysid: int
+    kind: EndpointKind
+    autopilot_link: codec.MavlinkLink
+    transponder_link: codec.MavlinkLink | None
+    schedule: TelemetrySchedule
+    out: list[bytes] = field(default_factory=list)
+
+
+@dataclass
+class BackendCounters:
+    """Inbound traffic the backend refused, by reason (the links count malformed bytes)."""
+
+    unknown_endpoint: int = 0
+    wrong_vehicle: int = 0
+    transponder_commands: int = 0
+
+
+@dataclass(frozen=True)
+class Truth:
+    """The state of every vehicle (scenario ENU) at one tick, for logs and metrics."""
+
+    t_s: float
+    p_enu_m: FloatArray  # (N, 3)
+    v_enu_m_s: FloatArray  # (N, 3)
+    euler_rad: FloatArray  # (N, 3) phi, theta, psi
+    armed: NDArray[np.bool_]  # (N,)
+    modes: tuple[int, ...]
+    spoofer_claimed_p_enu_m: FloatArray | None  # (3,)
+
+
+class SimBackend:
+    """Every vehicle of one scenario behind MAVLink endpoints; see the module docstring."""
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        config: SimConfig | None = None,
+        kinds: Iterable[EndpointKind] = (EndpointKind.COMPANION, EndpointKind.GCS),
+    ) -> None:
+        self.scenario = scenario
+        self.config = config if config is not None else SimConfig()
+        self.counters = BackendCounters()
+        self.n_vehicles = scenario.vehicle_count
+        self.t_s = 0.0
+        self.fleet = OctorotorFleet(
+            self.n_vehicles, self.config.vehicle, self.config.controller, self._initial_state()
+        )
+        self.homes = [HomeFrame(scenario.origin, s[POS_ENU]) for s in self._initial_state()]
+        self.transponders = [
+            Transponder(i + 1, scenario.serial_of(i + 1).encode("ascii"))
+            for i in range(self.n_vehicles)
+        ]
+        self.autopilots = [self._make_autopilot(i) for i in range(self.n_vehicles)]
+        self.radio = RadioChannel(
+            scenario.radio,
+            [scenario.tx_power_dbm_of(i + 1) for i in range(self.n_vehicles)],
+            rng.stream(scenario.seed, "sim/radio"),
+        )
+        self.spoofer_index = len(scenario.aircraft) if scenario.spoofer is not None else None
+        self.spoofer_broadcaster = self._make_spoofer_broadcaster()
+        self.endpoints = {
+            endpoint_name(i + 1, kind): self._make_endpoint(i + 1, kind)
+            for i in range(self.n_vehicles)
+            for kind in kinds
+        }
+        self.last_transmissions: list[Transmission] = []
+        self.last_receptions: list[Reception] = []
+        self._pending_air: list[Transmission] = []
+        self._next_periodic_s = 0.0
+        if self.spoofer_index is not None:
+            self._launch_spoofer(self.spoofer_index)
+
+    # -- construction ---------------------------------------------------------------------
+
+    def _initial_state(self) -> FloatArray:
+        state = np.zeros((self.n_vehicles, STATE_SIZE))
+        for i, aircraft in enumerate(self.scenario.aircraft):
+            state[i, POS_ENU] = (aircraft.start_enu_m[0], aircraft.start_enu_m[1], 0.0)
+            state[i, IDX_PSI] = math.pi / 2  # facing north
+        spoofer = self.scenario.spoofer
+        if spoofer is not None:
+            i = len(self.scenario.aircraft)
+            state[i, POS_ENU] = spoofer.start_enu_m
+            delta = np.subtract(spoofer.goal_enu_m, spoofer.start_enu_m)
+            norm = float(np.linalg.norm(delta))
+            if norm > 0:
+                state[i, VEL_ENU] = spoofer.speed_m_s * delta / norm
+            state[i, IDX_PSI] = math.atan2(delta[1], delta[0])
+        return state
+
+    def _make_autopilot(self, i: int) -> Autopilot:
+        mission = None
+        spoofer = self.scenario.spoofer
+        if spoofer is not None and i == len(self.scenario.aircraft):
+            mission = StraightLineMission(
+                spoofer.start_enu_m, spoofer.goal_enu_m, spoofer.speed_m_s
+            )
+        return Autopilot(
+            sysid=i + 1,
+            vehicle=i,
+            home=self.homes[i],
+            actuators=self.fleet,
+            config=self.config.autopilot,
+            mission=mission,
+            remote_id_error=self.transponders[i].ready_error,
+        )
+
+    def _make_spoofer_broadcaster(self) -> SpooferBroadcaster | None:
+        spoofer = self.scenario.spoofer
+        if spoofer is None:
+            return None
+        ground = (spoofer.start_enu_m[0], spoofer.start_enu_m[1], 0.0)
+        phase = float(rng.stream(self.scenario.seed, "sim/spoofer").uniform(0.0, 1.0))
+        return SpooferBroadcaster(
+            spoofer.serial,
+            spoofer.offset_enu_m,
+            self.scenario.origin,
+            self.scenario.start_unix_s,
+            ground,
+            phase_s=phase,
+        )
+
+    def _make_endpoint(self, sysid: int, kind: EndpointKind) -> _Endpoint:
+        transponder = None
+        if kind is EndpointKind.COMPANION:
+            transponder = codec.MavlinkLink(sysid, TRANSPONDER_COMPONENT)
+        return _Endpoint(
+            name=endpoint_name(sysid, kind),
+            sysid=sysid,
+            kind=kind,
+            autopilot_link=codec.MavlinkLink(sysid, AUTOPILOT_COMPONENT),
+            transponder_link=transponder,
+            schedule=TelemetrySchedule(self.config.telemetry_hz.by_id()),
+        )
+
+    def _launch_spoofer(self, i: int) -> None:
+        """The spoofer starts airborne, armed, flying its line in AUTO."""
+        autopilot = self.autopilots[i]
+        self.fleet.arm(i)
+        autopilot.armed = True
+        autopilot.mode = m.CopterMode.AUTO
+        autopilot.takeoff_alt_enu_m = float(self.fleet.state_of(i)[2])
+        autopilot.update(0.0, self._samples()[i])
+
+    # -- the sans-I/O step ----------------------------------------------------------------
+
+    def handle(self, now_s: float, inbound: Iterable[tuple[str, bytes]]) -> list[tuple[str, bytes]]:
+        """Consume inbound datagrams, advance to ``now_s``, return outbound datagrams."""
+        if not math.isfinite(now_s) or now_s < self.t_s - 1e-9:
+            raise ClockError(f"sim time must not go backwards: now {self.t_s} s, asked {now_s} s")
+        samples = self._samples()
+        for name, data in inbound:
+            self._receive(name, data, samples)
+        self.fleet.advance_to(now_s)
+        self.t_s = now_s
+        samples = self._samples()
+        for autopilot, sample in zip(self.autopilots, samples, strict=True):
+            autopilot.update(now_s, sample)
+        self._spoofer_broadcast(now_s)
+        self._carry_air(now_s)
+        self._periodic(now_s)
+        return self._flush()
+
+    def _samples(self) -> list[VehicleSample]:
+        state = self.fleet.state
+        on_ground = self.fleet.on_ground
+        return [
+            VehicleSample(state[i, POS_ENU], state[i, VEL_ENU], float(state[i, IDX_PSI]), bool(g))
+            for i, g in enumerate(on_ground)
+        ]
+
+    def _receive(self, name: str, data: bytes, samples: list[VehicleSample]) -> None:
+        endpoint = self.endpoints.get(name)
+        if endpoint is None:
+            self.counters.unknown_endpoint += 1
+            logger.warning("datagram for unknown endpoint %r dropped", name)
+            return
+        for received in endpoint.autopilot_link.feed(data):
+            self._route(endpoint, received, samples[endpoint.sysid - 1])
+
+    def _route(self, endpoint: _Endpoint, received: codec.Received, sample: VehicleSample) -> None:
+        msg = received.message
+        i = endpoint.sysid - 1
+        ctx = CommandContext(self.t_s, sample, endpoint.schedule)
+        if isinstance(msg, _ODID_INBOUND):
+            frame = self.transponders[i].on_message(self.t_s, msg)
+            if frame is not None:
+                self._pending_air.append(Transmission(self.t_s, i, frame))
+            return
+        target = getattr(msg, "target_system", None)
+        if target is None:
+            return  # heartbeats and other broadcasts from the peer: nothing to do
+        if target not in (0, endpoint.sysid):
+            self.counters.wrong_vehicle += 1
+            logger.warning(
+                "%s: %s for system %d dropped: this link is vehicle %d (have 1..%d)",
+                endpoint.name,
+                type(msg).__name__,
+                target,
+                endpoint.sysid,
+                self.n_vehicles,
+            )
+            return
+        autopilot = self.autopilots[i]
+        if isinstance(msg, m.CommandLong):
+            self._command(endpoint, received, msg, ctx)
+        elif isinstance(msg, m.SetMode):
+            ack = autopilot.handle_set_mode(msg, ctx)
+            self._send(endpoint, _addressed(ack, received))
+        elif isinstance(msg, m.SetPositionTargetLocalNed):
+            autopilot.handle_position_target(msg, ctx)
+
+    def _command(
+        self, endpoint: _Endpoint, received: codec.Received, cmd: m.CommandLong, ctx: CommandContext
+    ) -> None:
+        if cmd.target_component == TRANSPONDER_COMPONENT:
+            self.counters.transponder_commands += 1
+            ack = m.CommandAck(cmd.command, int(m.MavResult.UNSUPPORTED), 0, 0)
+            self._send(endpoint, _addressed(ack, received), transponder=True)
+            return
+        ack = self.autopilots[endpoint.sysid - 1].handle_command(cmd, ctx)
+        self._send(endpoint, _addressed(ack, received))
+
+    def _spoofer_broadcast(self, now_s: float) -> None:
+        if self.spoofer_broadcaster is None or self.spoofer_index is None:
+            return
+        i = self.spoofer_index
+        state = self.fleet.state_of(i)
+        for msg in self.spoofer_broadcaster.due(now_s, state[POS_ENU], state[VEL_ENU]):
+            frame = self.transponders[i].on_message(now_s, msg)
+            if frame is not None:
+                self._pending_air.append(Transmission(now_s, i, frame))
+
+    def _carry_air(self, now_s: float) -> None:
+        self.last_transmissions, self._pending_air = self._pending_air, []
+        positions = self.fleet.state[:, POS_ENU]
+        self.last_receptions = self.radio.deliver(self.last_transmissions, positions)
+        for rx in self.last_receptions:
+            sender = self.transponders[rx.transmission.sender]
+            messages = self.transponders[rx.receiver].receive(
+                now_s, rx.transmission.payload, sender.radio_id, rx.rssi_dbm
+            )
+            endpoint = self.endpoints.get(endpoint_name(rx.receiver + 1, EndpointKind.COMPANION))
+            if endpoint is not None:
+                for msg in messages:
+                    self._send(endpoint, msg, transponder=True)
+
+    def _periodic(self, now_s: float) -> None:
+        snapshot: FleetSnapshot | None = None
+        for endpoint in self.endpoints.values():
+            i = endpoint.sysid - 1
+            for text in self.autopilots[i].take_status():
+                for peer in self._endpoints_of(endpoint.sysid):
+                    self._send(peer, text)
+            due = endpoint.schedule.due(now_s)
+            if not due:
+                continue
+            if snapshot is None:
+                snapshot = FleetSnapshot(
+                    now_s,
+                    self.scenario.start_unix_s + now_s,
+                    self.fleet.state,
+                    self.homes,
+                    self.scenario.origin,
+                )
+            for msg_id in due:
+                self._send(endpoint, self._telemetry(msg_id, i, snapshot))
+        if now_s >= self._next_periodic_s - 1e-9:
+            self._next_periodic_s += 1.0 / max(self.config.transponder_heartbeat_hz, 1e-3)
+            for endpoint in self.endpoints.values():
+                if endpoint.transponder_link is not None:
+                    transponder = self.transponders[endpoint.sysid - 1]
+                    self._send(endpoint, transponder.heartbeat(), transponder=True)
+                    self._send(endpoint, transponder.arm_status(now_s), transponder=True)
+
+    def _telemetry(self, msg_id: int, i: int, snapshot: FleetSnapshot) -> m.Message:
+        if msg_id == telemetry.HEARTBEAT:
+            return self.autopilots[i].heartbeat()
+        builder = _TELEMETRY_BUILDERS[msg_id]
+        return builder(snapshot, i)
+
+    def _endpoints_of(self, sysid: int) -> list[_Endpoint]:
+        return [e for e in self.endpoints.values() if e.sysid == sysid]
+
+    def _send(self, endpoint: _Endpoint, msg: m.Message, transponder: bool = False) -> None:
+        link = endpoint.transponder_link if transponder else endpoint.autopilot_link
+        if link is None:
+            return
+        endpoint.out.append(link.pack(msg))
+
+    def _flush(self) -> list[tuple[str, bytes]]:
+        out: list[tuple[str, bytes]] = []
+        for endpoint in self.endpoints.values():
+            if endpoint.out:
+                out.extend((endpoint.name, d) for d in _datagrams(endpoint.out))
+                endpoint.out = []
+        return out
+
+    # -- for logs, metrics and tests ------------------------------------------------------
+
+    def truth(self) -> Truth:
+        state = self.fleet.state
+        claimed = None
+        if self.spoofer_broadcaster is not None and self.spoofer_index is not None:
+            claimed = self.spoofer_broadcaster.claimed_p_enu_m(state[self.spoofer_index, POS_ENU])
+        return Truth(
+            self.t_s,
+            state[:, POS_ENU],
+            state[:, VEL_ENU],
+            state[:, EULER],
+            self.fleet.armed,
+            tuple(int(a.mode) for a in self.autopilots),
+            claimed,
+        )
+
+    def link_counters(self) -> dict[str, codec.LinkCounters]:
+        return {name: e.autopilot_link.counters for name, e in self.endpoints.items()}
+
+
+_TELEMETRY_BUILDERS: dict[int, Callable[[FleetSnapshot, int], m.Message]] = {
+    telemetry.GLOBAL_POSITION_INT: FleetSnapshot.global_position_int,
+    telemetry.LOCAL_POSITION_NED: FleetSnapshot.local_position_ned,
+    telemetry.ATTITUDE: FleetSnapshot.attitude,
+    telemetry.SYS_STATUS: FleetSnapshot.sys_status,
+    telemetry.SYSTEM_TIME: FleetSnapshot.system_time,
+    telemetry.HOME_POSITION: FleetSnapshot.home_position,
+}
+
+
+def _addressed(ack: m.CommandAck, received: codec.Received) -> m.CommandAck:
+    return m.CommandAck(
+        ack.command, ack.result, received.src_system, received.src_component, ack.progress
+    )
+
+
+def _datagrams(packets: list[bytes]) -> list[bytes]:
+    """Join packets into datagrams of at most MAX_DATAGRAM_BYTES (never splitting one)."""
+    out: list[bytes] = []
+    current = bytearray()
+    for packet in packets:
+        if current and len(current) + len(packet) > MAX_DATAGRAM_BYTES:
+            out.append(bytes(current))
+            current = bytearray()
+        current += packet
+    if current:
+        out.append(bytes(current))
+    return out
