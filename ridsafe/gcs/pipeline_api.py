@@ -1,0 +1,121 @@
+"""The interface between the GCS shell (ingest, cycle, messaging) and its estimation pipeline.
+
+The shell validates observation reports, converts them into the scenario ENU frame about
+the configured origin, groups them by transmission (claimed id + RID timestamp) and, every
+GCS cycle (0.25 s), hands the pipeline the transmissions that closed since the last cycle.
+The pipeline (detection -> multilateration -> IMM tracking -> unsafe region) answers with
+what it decided; the shell logs it and sends alerts and regions to every companion.
+
+Frames and units: positions ``*_enu_m`` in the scenario ENU frame, covariances in m^2 in
+the same axes, times in sim seconds, powers in dBm.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ridsafe.common.messages import AlertState, RidsafeDetector
+
+FloatArray = NDArray[np.float64]
+
+
+def readonly(values: object) -> FloatArray:
+    """A float64 copy that cannot be written (for arrays stored in frozen dataclasses)."""
+    arr = np.array(values, dtype=np.float64)
+    arr.setflags(write=False)
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class Transmission:
+    """Every reception of one broadcast.
+
+    ``rx_sysid : (k,) int``, ``rx_p_enu_m : (k, 3)``, ``rx_t_s : (k,)``, ``rssi_dbm : (k,)``:
+    receiver ids, their own positions and times at reception, and the RSSI each measured.
+    """
+
+    uas_id: str
+    rid_timestamp_s: float
+    claimed_p_enu_m: FloatArray  # (3,)
+    claimed_v_enu_m_s: FloatArray | None  # (3,) or None when the broadcast had no speed
+    rx_sysid: NDArray[np.int64]
+    rx_p_enu_m: FloatArray
+    rx_t_s: FloatArray
+    rssi_dbm: FloatArray
+
+    @property
+    def t_s(self) -> float:
+        """When the transmission was heard (earliest reception)."""
+        return float(self.rx_t_s.min())
+
+    @property
+    def n_receivers(self) -> int:
+        return int(self.rx_sysid.shape[0])
+
+
+@dataclass(frozen=True)
+class DetectorResult:
+    """One detector's verdict on one transmission (for logs and ROC curves)."""
+
+    uas_id: str
+    detector: RidsafeDetector
+    statistic: float
+    threshold: float
+    decision: bool
+
+
+@dataclass(frozen=True)
+class AlertChange:
+    uas_id: str
+    detector: RidsafeDetector
+    statistic: float
+    threshold: float
+    state: AlertState
+
+
+@dataclass(frozen=True, eq=False)
+class TrackEstimate:
+    uas_id: str
+    track_id: int
+    p_enu_m: FloatArray  # (3,)
+    cov_enu_m2: FloatArray  # (3, 3)
+    v_enu_m_s: FloatArray  # (3,)
+    mode_probabilities: FloatArray  # (2,) CV, CA
+    fix: bool  # updated by a fix this cycle
+    last_fix_s: float
+
+
+@dataclass(frozen=True, eq=False)
+class UnsafeRegion:
+    """(x - c)^T P^-1 (x - c) <= chi2_threshold, with ``axes_enu`` columns the unit
+    semi-axis directions for ``semi_axes_m`` (largest first)."""
+
+    uas_id: str
+    track_id: int
+    t_s: float
+    center_enu_m: FloatArray  # (3,)
+    cov_enu_m2: FloatArray  # (3, 3)
+    v_enu_m_s: FloatArray  # (3,)
+    chi2_threshold: float
+    alpha: float
+    valid_until_s: float
+    semi_axes_m: FloatArray  # (3,)
+    axes_enu: FloatArray  # (3, 3)
+
+
+@dataclass(frozen=True)
+class CycleOutput:
+    detector_results: tuple[DetectorResult, ...] = ()
+    alert_changes: tuple[AlertChange, ...] = ()
+    tracks: tuple[TrackEstimate, ...] = ()
+    regions: tuple[UnsafeRegion, ...] = ()
+    deleted_tracks: tuple[str, ...] = ()  # uas_ids whose track was deleted this cycle
+
+
+class GcsPipeline(Protocol):
+    def step(self, now_s: float, transmissions: Sequence[Transmission]) -> CycleOutput: ...
