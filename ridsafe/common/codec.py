@@ -53,6 +53,7 @@ class LinkCounters:
 
     accepted: int = 0
     bad_data: int = 0
+    truncated: int = 0
     unknown_id: int = 0
     unhandled: int = 0
     invalid_value: int = 0
@@ -61,7 +62,13 @@ class LinkCounters:
 
     @property
     def dropped(self) -> int:
-        return self.bad_data + self.unknown_id + self.invalid_value + self.rejected_signature
+        return (
+            self.bad_data
+            + self.truncated
+            + self.unknown_id
+            + self.invalid_value
+            + self.rejected_signature
+        )
 
 
 @dataclass(frozen=True)
@@ -837,23 +844,34 @@ class MavlinkLink:
     def pack_all(self, messages: list[m.Message]) -> bytes:
         return b"".join(self.pack(message) for message in messages)
 
-    def feed(self, data: bytes) -> list[Received]:
-        """Parse bytes (any split across calls); return the accepted messages."""
+    def feed(self, data: bytes, end_of_datagram: bool = True) -> list[Received]:
+        """Parse bytes; return the accepted messages.
+
+        Over UDP a MAVLink packet never spans datagrams, so by default a partial packet left
+        at the end of ``data`` is dropped (counted as ``truncated``) instead of swallowing
+        the start of the next datagram. Pass ``end_of_datagram=False`` for a byte stream
+        (serial, TCP) where packets may be split across reads.
+        """
         try:
             parsed = self._mav.parse_buffer(data)
         except Exception as exc:  # pymavlink raises a variety on hostile input
             self._drop("bad_data", f"parser error: {exc!r}")
-            self._mav.buf = bytearray()
-            self._mav.buf_index = 0
-            return []
-        if not parsed:
+            self._reset_parser()
             return []
         received: list[Received] = []
-        for raw in parsed:
+        for raw in parsed or ():
             item = self._accept(raw)
             if item is not None:
                 received.append(item)
+        if end_of_datagram and self._mav.buf_len() > 0:
+            self._drop("truncated", f"{self._mav.buf_len()} bytes of a partial packet")
+            self._reset_parser()
         return received
+
+    def _reset_parser(self) -> None:
+        self._mav.buf = bytearray()
+        self._mav.buf_index = 0
+        self._mav.expected_length = mav.HEADER_LEN_V1 + 2
 
     def _accept(self, raw: Any) -> Received | None:
         name = raw.get_type()

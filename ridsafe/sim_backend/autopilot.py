@@ -250,6 +250,7 @@ class Autopilot:
         return out
 
     def _say(self, severity: m.MavSeverity, text: str) -> None:
+        """Log ``text`` and queue it as STATUSTEXT (which carries at most 50 characters)."""
         logger.info("vehicle %d: %s", self.sysid, text)
         self._status.append(m.StatusText(int(severity), text[:50]))
 
@@ -373,11 +374,11 @@ class Autopilot:
         self, msg: m.SetPositionTargetLocalNed, ctx: CommandContext
     ) -> str | None:
         if not MODE_RULES[self.mode].accepts_targets:
-            return f"Target ignored: mode {self.mode.name} is not GUIDED"
+            return f"Target: mode {self.mode.name} is not GUIDED"
         if not self.armed or (ctx.sample.on_ground and self.takeoff_alt_enu_m is None):
-            return "Target ignored: not flying (arm and take off first)"
+            return "Target: not flying (arm and take off first)"
         if msg.coordinate_frame not in (m.MavFrame.LOCAL_NED, m.MavFrame.LOCAL_OFFSET_NED):
-            return f"Target ignored: frame {msg.coordinate_frame} unsupported"
+            return f"Target: frame {msg.coordinate_frame} unsupported"
         return _mask_rejection(msg, self.config)
 
     # -- every tick ------------------------------------------------------------------------
@@ -474,11 +475,11 @@ def _mask_rejection(msg: m.SetPositionTargetLocalNed, config: AutopilotConfig) -
     mask = Mask(msg.type_mask)
     used_pos, used_vel = _used(mask, _POSITION_BITS), _used(mask, _VELOCITY_BITS)
     if used_pos is None or used_vel is None:
-        return f"Target ignored: type_mask {msg.type_mask} mixes used and ignored axes"
+        return f"Target: mask {msg.type_mask} mixes used and ignored axes"
     if (mask & _ACCEL_BITS) != _ACCEL_BITS:
-        return f"Target ignored: type_mask {msg.type_mask}: acceleration unsupported"
+        return f"Target: mask {msg.type_mask} asks for acceleration"
     if not (used_pos or used_vel):
-        return f"Target ignored: type_mask {msg.type_mask} uses neither position nor velocity"
+        return f"Target: mask {msg.type_mask} uses neither pos nor velocity"
     return _value_rejection(msg, used_pos, used_vel, config)
 
 
@@ -493,11 +494,11 @@ def _value_rejection(
     if not (Mask(msg.type_mask) & Mask.YAW_IGNORE):
         values.append(msg.yaw_rad)
     if not all(math.isfinite(v) for v in values):
-        return "Target ignored: NaN or infinite value in a used field"
+        return "Target: NaN or infinite value in a used field"
     if used_pos and max(abs(v) for v in msg.p_ned_m) > config.max_target_distance_m:
-        return f"Target ignored: position {msg.p_ned_m} out of range"
+        return f"Target: {max(abs(v) for v in msg.p_ned_m):.3g} m out of range"
     if used_vel and math.hypot(*msg.v_ned_m_s) > config.max_target_speed_m_s:
-        return f"Target ignored: speed {math.hypot(*msg.v_ned_m_s):.3g} m/s out of range"
+        return f"Target: {math.hypot(*msg.v_ned_m_s):.3g} m/s out of range"
     return None
 
 

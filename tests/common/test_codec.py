@@ -207,7 +207,7 @@ def test_stream_split_at_every_byte_still_parses() -> None:
     data = tx.pack_all([m.LockstepTick(0.1, 1), m.Heartbeat(18, 8, 0, 0, 4)])
     got: list[codec.Received] = []
     for i in range(len(data)):
-        got.extend(rx.feed(data[i : i + 1]))
+        got.extend(rx.feed(data[i : i + 1], end_of_datagram=False))
     assert [type(r.message) for r in got] == [m.LockstepTick, m.Heartbeat]
 
 
@@ -220,12 +220,21 @@ def test_garbage_truncated_and_corrupt_frames_are_counted_and_parsing_resumes() 
     got = rx.feed(b"\x00\x01garbage" + bytes(corrupt) + good)
     assert [r.message for r in got] == [m.LockstepTick(1.0, 7)]
     assert rx.counters.bad_data >= 2
-    # A truncated frame swallows what follows until its length is satisfied; the
-    # parser must recover on the frames after that.
+    # In a byte stream a truncated frame swallows what follows until its length is
+    # satisfied; the parser must recover on the frames after that.
     later = [tx.pack(m.LockstepTick(4.0 + i, 10 + i)) for i in range(3)]
-    got = rx.feed(truncated + b"".join(later))
+    got = rx.feed(truncated + b"".join(later), end_of_datagram=False)
     assert m.LockstepTick(6.0, 12) in [r.message for r in got]
     assert rx.counters.accepted >= 2
+
+
+def test_a_partial_packet_at_the_end_of_a_datagram_does_not_eat_the_next_datagram() -> None:
+    tx, rx = _link_pair()
+    truncated = tx.pack(m.LockstepTick(3.0, 9))[:-4]
+    assert rx.feed(truncated) == []
+    assert rx.counters.truncated == 1
+    got = rx.feed(tx.pack(m.LockstepTick(4.0, 10)))
+    assert [r.message for r in got] == [m.LockstepTick(4.0, 10)]
 
 
 def test_unknown_message_id_is_counted_not_raised() -> None:
