@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from ridsafe.common import frames
 from ridsafe.common import messages as m
 
 ODID_EPOCH_UNIX_S = 1_546_300_800  # 2019-01-01T00:00:00Z
@@ -61,7 +62,8 @@ class OwnState:
 def location(state: OwnState, id_or_mac: bytes = b"") -> m.OdidLocation:
     vn, ve, vd = state.v_ned_m_s
     speed_h = math.hypot(vn, ve)
-    course = None if speed_h < 0.01 else math.degrees(math.atan2(ve, vn)) % 360.0
+    course_deg = float(frames.course_deg_from_velocity_ned(state.v_ned_m_s))
+    course = None if math.isnan(course_deg) else course_deg
     if state.emergency:
         status = m.OdidStatus.EMERGENCY
     else:

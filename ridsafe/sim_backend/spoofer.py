@@ -38,7 +38,9 @@ class StraightLineMission:
         self.t0_s = t0_s
 
     def target(self, now_s: float) -> tuple[FloatArray, FloatArray]:
-        travelled = min(max(0.0, now_s - self.t0_s) * self.speed_m_s, self.length_m)
+        if now_s < self.t0_s:
+            return self.start.copy(), np.zeros(3)
+        travelled = min((now_s - self.t0_s) * self.speed_m_s, self.length_m)
         if travelled >= self.length_m:
             return self.goal.copy(), np.zeros(3)
         return self.start + travelled * self.direction, self.speed_m_s * self.direction
@@ -76,12 +78,14 @@ class SpooferBroadcaster:
         out: list[m.Message] = []
         unix_s = self.start_unix_s + now_s
         if now_s >= self._next_static_s - 1e-9:
-            self._next_static_s += rid.RID_STATIC_PERIOD_S
+            self._next_static_s = _next_slot(self._next_static_s, now_s, rid.RID_STATIC_PERIOD_S)
             out.append(rid.basic_id(self.serial))
             out.append(rid.system(unix_s, *self._operator))
             out.append(rid.operator_id("OPERATOR-SPOOF"))
         if now_s >= self._next_location_s - 1e-9:
-            self._next_location_s += rid.RID_LOCATION_PERIOD_S
+            self._next_location_s = _next_slot(
+                self._next_location_s, now_s, rid.RID_LOCATION_PERIOD_S
+            )
             out.append(rid.location(self._own_state(unix_s, p_enu_m, v_enu_m_s)))
         return out
 
@@ -98,3 +102,10 @@ class SpooferBroadcaster:
             v_ned_m_s=(float(v_ned[0]), float(v_ned[1]), float(v_ned[2])),
             airborne=bool(p_enu_m[2] - self._ground_z_m > 0.5 or math.hypot(*v_enu_m_s) > 0.2),
         )
+
+
+def _next_slot(slot_s: float, now_s: float, period_s: float) -> float:
+    """The first slot after ``now_s`` on the grid ``slot_s + k period_s`` (missed slots are
+    skipped, so a stalled caller never bursts)."""
+    missed = math.floor((now_s - slot_s) / period_s + 1e-9)
+    return slot_s + (max(missed, 0) + 1) * period_s

@@ -106,17 +106,19 @@ class TelemetrySchedule:
         return True
 
     def due(self, now_s: float) -> list[int]:
-        """Message ids to send now (each at most once per call), in a fixed order."""
+        """Message ids to send now (each at most once per call), in a fixed order.
+
+        A stream keeps its phase and skips slots it missed instead of bursting; a message
+        asked for with ``request_once`` is sent in addition, without moving its stream.
+        """
         out = []
         for msg_id, interval in self.interval_s.items():
-            if msg_id in self.requested or (
-                interval != math.inf and now_s >= self.next_due_s[msg_id] - 1e-9
-            ):
+            periodic = interval != math.inf and now_s >= self.next_due_s[msg_id] - 1e-9
+            if periodic:
+                missed = math.floor((now_s - self.next_due_s[msg_id]) / interval + 1e-9)
+                self.next_due_s[msg_id] += (max(missed, 0) + 1) * interval
+            if periodic or msg_id in self.requested:
                 out.append(msg_id)
-                if interval != math.inf:
-                    # keep the phase; skip missed slots instead of bursting
-                    slots = max(1, math.floor((now_s - self.next_due_s[msg_id]) / interval) + 1)
-                    self.next_due_s[msg_id] += slots * interval
         self.requested.clear()
         return out
 

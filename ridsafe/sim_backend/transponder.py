@@ -66,12 +66,14 @@ class Transponder:
             message = updated
         if not isinstance(message, _BROADCAST_TYPES):
             return None
-        name, fields = codec.odid_fields(message)
         try:
+            name, fields = codec.odid_fields(message)
             frame = f3411.encode(name, fields)
-        except RidsafeError as exc:
+        except (RidsafeError, ValueError) as exc:  # UnicodeError is a ValueError
             self.counters.encode_rejected += 1
-            logger.warning("transponder %d: not broadcasting %s: %s", self.sysid, name, exc)
+            logger.warning(
+                "transponder %d: not broadcasting %s: %s", self.sysid, type(message).__name__, exc
+            )
             return None
         self._last_from_companion_s[name] = now_s
         if isinstance(message, m.OdidSystem):
