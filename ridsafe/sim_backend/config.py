@@ -54,4 +54,10 @@ class SimConfig:
     telemetry_hz: TelemetryRatesHz = field(default_factory=TelemetryRatesHz)
     ports: SimPorts = field(default_factory=SimPorts)
     transponder_heartbeat_hz: float = 1.0
-    arm_status_hz: float = 1.0
+    truth_log_hz: float = 10.0
+
+    def __post_init__(self) -> None:
+        for name in ("transponder_heartbeat_hz", "truth_log_hz"):
+            value = getattr(self, name)
+            if not 0.01 <= value <= 400.0:
+                raise FieldValueError(name, f"expected 0.01..400 Hz, got {value}")

@@ -28,9 +28,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from ridsafe.common import codec, rng
+from ridsafe.common import codec, rng, topics
 from ridsafe.common import messages as m
 from ridsafe.common.errors import ClockError
+from ridsafe.common.logsink import LogSink, NullSink
 from ridsafe.common.scenario import Scenario
 from ridsafe.sim_backend import telemetry
 from ridsafe.sim_backend.autopilot import (
@@ -113,9 +114,12 @@ class SimBackend:
         scenario: Scenario,
         config: SimConfig | None = None,
         kinds: Iterable[EndpointKind] = (EndpointKind.COMPANION, EndpointKind.GCS),
+        sink: LogSink | None = None,
     ) -> None:
         self.scenario = scenario
         self.config = config if config is not None else SimConfig()
+        self.sink: LogSink = sink if sink is not None else NullSink()
+        self._next_truth_log_s = 0.0
         self.counters = BackendCounters()
         self.n_vehicles = scenario.vehicle_count
         self.t_s = 0.0
@@ -236,7 +240,46 @@ class SimBackend:
         self._spoofer_broadcast(now_s)
         self._carry_air(now_s)
         self._periodic(now_s)
+        self._log(now_s)
         return self._flush()
+
+    def _log(self, now_s: float) -> None:
+        """Truth at ``truth_log_hz`` and every RID frame sent and received (topics.py)."""
+        if self.last_transmissions:
+            items = [
+                {"sender": tx.sender + 1, "msg_type": tx.payload[0] >> 4}
+                for tx in self.last_transmissions
+            ]
+            self.sink.log(topics.RADIO_TX, now_s, {"items": items})
+        if self.last_receptions:
+            received = [
+                {
+                    "sender": rx.transmission.sender + 1,
+                    "receiver": rx.receiver + 1,
+                    "msg_type": rx.transmission.payload[0] >> 4,
+                    "rssi_dbm": rx.rssi_dbm,
+                }
+                for rx in self.last_receptions
+            ]
+            self.sink.log(topics.RADIO_RX, now_s, {"items": received})
+        if now_s >= self._next_truth_log_s - 1e-9:
+            period = 1.0 / self.config.truth_log_hz
+            self._next_truth_log_s = (math.floor(now_s / period + 1e-9) + 1) * period
+            self.sink.log(topics.TRUTH, now_s, self.truth_record())
+
+    def truth_record(self) -> dict[str, object]:
+        truth = self.truth()
+        spoofer = None if self.spoofer_index is None else self.spoofer_index + 1
+        claimed = truth.spoofer_claimed_p_enu_m
+        return {
+            "sysid": list(range(1, self.n_vehicles + 1)),
+            "p_enu_m": truth.p_enu_m.round(4).tolist(),
+            "v_enu_m_s": truth.v_enu_m_s.round(4).tolist(),
+            "armed": truth.armed.tolist(),
+            "mode": list(truth.modes),
+            "spoofer_sysid": spoofer,
+            "spoofer_claimed_p_enu_m": None if claimed is None else claimed.round(4).tolist(),
+        }
 
     def _samples(self) -> list[VehicleSample]:
         state = self.fleet.state

@@ -7,10 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from ridsafe.common import codec
+from ridsafe.common import codec, topics
 from ridsafe.common import messages as m
 from ridsafe.common.dialect import ridsafe_v20 as mav
 from ridsafe.common.errors import ClockError
+from ridsafe.common.logsink import MemorySink
 from ridsafe.sim_backend.config import SimConfig
 from ridsafe.sim_backend.world import MAX_DATAGRAM_BYTES, SimBackend
 from tests.sim_backend.helpers import SimPair, scenario
@@ -96,3 +97,20 @@ def test_spoofer_flies_its_line_at_constant_speed_and_claims_an_offset() -> None
     assert truth.spoofer_claimed_p_enu_m is not None
     assert np.allclose(truth.spoofer_claimed_p_enu_m - p, sc.spoofer.offset_enu_m)
     assert truth.modes[-1] == m.CopterMode.AUTO and bool(truth.armed[-1])
+
+
+def test_truth_and_radio_are_logged_per_the_topics_contract() -> None:
+    sink = MemorySink()
+    backend = SimBackend(scenario(2, spoofer=True), SimConfig(), sink=sink)
+    for k in range(1, 251):  # 5 s
+        backend.handle(k * 0.02, [])
+    truth = sink.on(topics.TRUTH)
+    assert 50 <= len(truth) <= 51
+    required = set(topics.TOPICS[topics.TRUTH][1])
+    assert all(required <= set(record) for _, record in truth)
+    _, last = truth[-1]
+    assert last["spoofer_sysid"] == 3 and len(last["p_enu_m"]) == 3
+    received = [item for _, r in sink.on(topics.RADIO_RX) for item in r["items"]]
+    assert {item["receiver"] for item in received} == {1, 2}
+    assert all(item["sender"] == 3 for item in received)  # only the spoofer talks yet
+    assert sum(len(r["items"]) for _, r in sink.on(topics.RADIO_TX)) >= 5 + 3
