@@ -59,9 +59,12 @@ class AircraftConfig:
     goal_enu_m: Vec3
     cruise_alt_m: float = 60.0
     tx_power_dbm: float | None = None  # None: the radio's default
+    departure_s: float = 0.0  # sim time at which it may take off (depots launch in turn)
 
     def __post_init__(self) -> None:
         check_cta2063_serial("serial", self.serial)
+        if not 0.0 <= self.departure_s <= 86_400.0:
+            raise FieldValueError("departure_s", f"expected 0..86400 s, got {self.departure_s}")
         _check_vec("start_enu_m", self.start_enu_m)
         _check_vec("goal_enu_m", self.goal_enu_m)
         for name in ("start_enu_m", "goal_enu_m"):

@@ -1,0 +1,128 @@
+"""The paper's package-delivery scenario family, drawn per seed.
+
+1 km x 1 km (ENU about the origin, x and y in [-500, 500] m); three depots; benign aircraft
+start at the depots in turn (aircraft k at depot k mod 3), each depot launching one aircraft
+every ``launch_interval_s`` so departing aircraft do not start inside each other's NMAC
+radius; each delivery site is drawn uniformly in the area between ``min_trip_m`` and
+``max_trip_m`` from its depot; cruise altitudes are drawn from ``cruise_alts_m``. One spoofer
+crosses the area on a straight line through the middle of the traffic at constant speed and
+cruise altitude, broadcasting a constant offset.
+
+Matched seeds: everything is drawn from ``rng.stream(seed, "scenario")`` with a fixed number
+of draws per aircraft, so the same seed gives the same depots, deliveries and spoofer for
+both planners, and aircraft k of a 16-aircraft scenario is aircraft k of the 8-aircraft one.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ridsafe.common import rng
+from ridsafe.common.errors import FieldValueError
+from ridsafe.common.scenario import (
+    AircraftConfig,
+    Scenario,
+    SpooferConfig,
+    Vec3,
+    cta2063_serial,
+)
+
+SERIAL_MAKER = "RSAF"
+
+
+@dataclass(frozen=True)
+class FamilyConfig:
+    """How a scenario of the family is drawn (YAML ``family:`` section)."""
+
+    half_width_m: float = 500.0
+    depots_enu_m: tuple[Vec3, ...] = (
+        (-380.0, -380.0, 0.0),
+        (380.0, -380.0, 0.0),
+        (0.0, 400.0, 0.0),
+    )
+    launch_interval_s: float = 5.0
+    depot_spacing_m: float = 12.0  # aircraft waiting at one depot stand this far apart
+    min_trip_m: float = 350.0
+    max_trip_m: float = 650.0  # every delivery fits in a 120 s flight at 8 m/s
+    cruise_alts_m: tuple[float, ...] = (50.0, 60.0, 70.0)
+    spoofer_speed_m_s: float = 7.0
+    spoofer_alt_m: float = 60.0
+    spoofer_offset_enu_m: Vec3 = (50.0, 50.0, 0.0)
+    spoofer_through_radius_m: float = 150.0  # its line passes this close to the centre
+
+    def __post_init__(self) -> None:
+        if not self.depots_enu_m:
+            raise FieldValueError("depots_enu_m", "need at least one depot")
+        if not self.cruise_alts_m:
+            raise FieldValueError("cruise_alts_m", "need at least one cruise altitude")
+        if not 0.0 < self.min_trip_m < self.max_trip_m:
+            raise FieldValueError("min_trip_m", "expected 0 < min_trip_m < max_trip_m")
+
+
+def generate(base: Scenario, n_aircraft: int, seed: int, family: FamilyConfig) -> Scenario:
+    """Scenario ``seed`` of the family with ``n_aircraft`` benign aircraft (and a spoofer)."""
+    if n_aircraft < 1:
+        raise ValueError(f"need at least one aircraft, got {n_aircraft}")
+    draw = rng.stream(seed, "scenario")
+    spoofer = _spoofer(draw, family)  # drawn first: the same for every density
+    aircraft = tuple(_aircraft(k, draw, family) for k in range(n_aircraft))
+    return dataclasses.replace(
+        base, aircraft=aircraft, spoofer=spoofer, seed=seed, name=f"family-n{n_aircraft}-s{seed}"
+    )
+
+
+def _aircraft(k: int, draw: np.random.Generator, family: FamilyConfig) -> AircraftConfig:
+    n_depots = len(family.depots_enu_m)
+    depot = np.array(family.depots_enu_m[k % n_depots])
+    slot = k // n_depots
+    # Waiting aircraft stand on a line east of the depot marker.
+    start = depot + np.array([slot * family.depot_spacing_m, 0.0, 0.0])
+    # A fixed number of draws per aircraft keeps seeds matched across densities.
+    u = draw.random(65)
+    goal = _delivery_site(u[:-1], depot, family)
+    alt = family.cruise_alts_m[int(u[-1] * len(family.cruise_alts_m))]
+    return AircraftConfig(
+        serial=cta2063_serial(SERIAL_MAKER, f"{k + 1:08d}"),
+        start_enu_m=_vec(start),
+        goal_enu_m=_vec(goal),
+        cruise_alt_m=alt,
+        departure_s=slot * family.launch_interval_s,
+    )
+
+
+def _delivery_site(uniforms: np.ndarray, depot: np.ndarray, family: FamilyConfig) -> np.ndarray:
+    """Rejection-sample a site far enough from the depot (deterministic given uniforms)."""
+    w = family.half_width_m * 0.9
+    for ux, uy in uniforms.reshape(-1, 2):
+        site = np.array([(2 * ux - 1) * w, (2 * uy - 1) * w, 0.0])
+        if family.min_trip_m <= np.hypot(*(site - depot)[:2]) <= family.max_trip_m:
+            return site
+    toward_centre = -depot / max(float(np.linalg.norm(depot)), 1e-9)
+    return depot + toward_centre * 0.5 * (family.min_trip_m + family.max_trip_m)
+
+
+def _spoofer(draw: np.random.Generator, family: FamilyConfig) -> SpooferConfig:
+    """A straight line from one edge to the opposite one, passing near the centre."""
+    heading = draw.uniform(0.0, 2 * math.pi)
+    offset = draw.uniform(-1.0, 1.0) * family.spoofer_through_radius_m
+    direction = np.array([math.cos(heading), math.sin(heading), 0.0])
+    normal = np.array([-direction[1], direction[0], 0.0])
+    through = offset * normal + np.array([0.0, 0.0, family.spoofer_alt_m])
+    half_length = family.half_width_m * 1.05
+    start = through - half_length * direction
+    goal = through + half_length * direction
+    return SpooferConfig(
+        serial=cta2063_serial(SERIAL_MAKER, "00000666"),
+        start_enu_m=_vec(start),
+        goal_enu_m=_vec(goal),
+        speed_m_s=family.spoofer_speed_m_s,
+        offset_enu_m=family.spoofer_offset_enu_m,
+    )
+
+
+def _vec(p: np.ndarray) -> Vec3:
+    return (round(float(p[0]), 3), round(float(p[1]), 3), round(float(p[2]), 3))

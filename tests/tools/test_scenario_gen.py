@@ -1,0 +1,47 @@
+"""The scenario family: matched seeds, valid geometry, the spoofer crossing the traffic."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ridsafe.tools.scenario import load_scenario_file
+from ridsafe.tools.scenario_gen import FamilyConfig, generate
+
+BASE = load_scenario_file().scenario
+FAMILY = FamilyConfig()
+
+
+def test_same_seed_same_scenario_and_densities_share_their_first_aircraft() -> None:
+    a16 = generate(BASE, 16, 7, FAMILY)
+    assert generate(BASE, 16, 7, FAMILY) == a16
+    a8 = generate(BASE, 8, 7, FAMILY)
+    assert a8.aircraft == a16.aircraft[:8] and a8.spoofer == a16.spoofer
+    assert generate(BASE, 16, 8, FAMILY).aircraft != a16.aircraft
+
+
+def test_geometry_depots_trips_departures_and_serials() -> None:
+    for seed in range(20):
+        s = generate(BASE, 16, seed, FAMILY)
+        assert len({a.serial for a in s.aircraft}) == 16
+        for k, a in enumerate(s.aircraft):
+            depot = np.array(FAMILY.depots_enu_m[k % 3])
+            assert np.hypot(*(np.array(a.start_enu_m) - depot)[:2]) <= 5 * FAMILY.depot_spacing_m
+            trip = math.dist(a.start_enu_m[:2], a.goal_enu_m[:2])
+            assert 250.0 <= trip <= FAMILY.max_trip_m + 5 * FAMILY.depot_spacing_m
+            assert all(abs(c) <= FAMILY.half_width_m for c in a.goal_enu_m[:2])
+            assert a.departure_s == (k // 3) * FAMILY.launch_interval_s
+            assert a.cruise_alt_m in FAMILY.cruise_alts_m
+
+
+def test_spoofer_crosses_the_area_near_its_centre() -> None:
+    for seed in range(20):
+        spoofer = generate(BASE, 4, seed, FAMILY).spoofer
+        assert spoofer is not None
+        start, goal = np.array(spoofer.start_enu_m), np.array(spoofer.goal_enu_m)
+        direction = (goal - start) / np.linalg.norm(goal - start)
+        closest = start + direction * np.dot(-start, direction)  # point nearest the centre
+        assert np.hypot(*closest[:2]) <= FAMILY.spoofer_through_radius_m + 1e-6
+        assert np.linalg.norm(goal - start) >= 2 * FAMILY.half_width_m
+        assert spoofer.offset_enu_m == (50.0, 50.0, 0.0)
