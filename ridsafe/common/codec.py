@@ -897,10 +897,20 @@ class MavlinkLink:
         return Received(raw.get_srcSystem(), raw.get_srcComponent(), message, signed)
 
     def _drop(self, kind: str, reason: str) -> None:
-        setattr(self.counters, kind, getattr(self.counters, kind) + 1)
+        """Count a drop; warn on the first of each kind and then every 1000th (a stream of
+        garbage must not flood the log), debug otherwise."""
+        count = getattr(self.counters, kind) + 1
+        setattr(self.counters, kind, count)
         self.counters.last_error = reason
-        logger.warning(
-            "link %d/%d dropped %s: %s", self.src_system, self.src_component, kind, reason
+        level = logging.WARNING if count == 1 or count % 1000 == 0 else logging.DEBUG
+        logger.log(
+            level,
+            "link %d/%d dropped %s (%d so far): %s",
+            self.src_system,
+            self.src_component,
+            kind,
+            count,
+            reason,
         )
 
 
