@@ -1,0 +1,101 @@
+"""Other aircraft as their Remote ID claims them: the latest LOCATION per uas_id.
+
+A claim is kept ``max_age_s`` after it was heard (a 1 Hz broadcaster missing two beats is
+gone), excluding the aircraft's own serial. For the planner it becomes a
+``planner_api.Neighbour`` in the local NED frame, flagged when the GCS has raised a
+spoofing alert for that id. Velocity from the RID fields::
+
+    v_n = s_h cos(course),   v_e = s_h sin(course),   v_d = -s_v
+
+with unknown speeds taken as 0 (and an unknown course with them: RID reports none below
+walking pace).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Collection
+from dataclasses import dataclass
+
+from ridsafe.common import messages as m
+from ridsafe.companion.observations import claimed_id
+from ridsafe.companion.planner_api import Neighbour, Vec3
+
+__all__ = ["NeighbourTable", "velocity_ned"]
+
+ToLocal = Callable[[float, float, float], Vec3]
+
+
+def velocity_ned(location: m.OdidLocation) -> Vec3:
+    """NED velocity (m/s) a RID LOCATION claims; unknown parts are 0."""
+    speed_h = location.speed_horizontal_m_s or 0.0
+    course = location.course_deg
+    vn = ve = 0.0
+    if course is not None:
+        vn = speed_h * math.cos(math.radians(course))
+        ve = speed_h * math.sin(math.radians(course))
+    speed_v = location.speed_vertical_m_s or 0.0
+    return (vn, ve, -speed_v)
+
+
+@dataclass(frozen=True, slots=True)
+class _Claim:
+    lat_deg: float
+    lon_deg: float
+    alt_m: float
+    v_ned_m_s: Vec3
+    t_s: float  # when heard, on the clock passed to ``update``
+
+
+class NeighbourTable:
+    """Latest claimed state per heard uas_id, excluding ``own_id``."""
+
+    def __init__(self, own_id: str, max_age_s: float = 3.0) -> None:
+        self.own_id = own_id
+        self.max_age_s = max_age_s
+        self._claims: dict[str, _Claim] = {}
+        self.unusable = 0  # LOCATIONs without a position
+
+    def __len__(self) -> int:
+        return len(self._claims)
+
+    def update(self, t_s: float, location: m.OdidLocation) -> bool:
+        """Record a heard LOCATION (received at ``t_s``); False if it is ours or unusable."""
+        uas_id = claimed_id(location.id_or_mac)
+        if uas_id == self.own_id:
+            return False
+        alt = (
+            location.alt_geodetic_m if location.alt_geodetic_m is not None else location.alt_baro_m
+        )
+        if location.lat_deg is None or location.lon_deg is None or alt is None:
+            self.unusable += 1
+            return False
+        kept = self._claims.get(uas_id)
+        if kept is not None and kept.t_s > t_s:
+            return False  # older than what is kept
+        self._claims[uas_id] = _Claim(
+            location.lat_deg, location.lon_deg, alt, velocity_ned(location), t_s
+        )
+        return True
+
+    def expire(self, now_s: float) -> list[str]:
+        gone = [uas for uas, c in self._claims.items() if now_s - c.t_s > self.max_age_s]
+        for uas in gone:
+            del self._claims[uas]
+        return gone
+
+    def neighbours(
+        self, now_s: float, to_local: ToLocal, flagged: Collection[str] = ()
+    ) -> tuple[Neighbour, ...]:
+        """The current claims in the local NED frame, sorted by id."""
+        self.expire(now_s)
+        return tuple(
+            Neighbour(
+                uas_id=uas,
+                p_ned_m=to_local(c.lat_deg, c.lon_deg, c.alt_m),
+                v_ned_m_s=c.v_ned_m_s,
+                t_s=c.t_s,
+                flagged=uas in flagged,
+            )
+            for uas, c in sorted(self._claims.items())
+        )
