@@ -296,7 +296,8 @@ def test_a_refused_arm_is_logged_with_the_result_and_retried_until_accepted() ->
 def test_waits_on_the_ground_until_its_departure_time() -> None:
     mission = Mission(CompanionConfig(), SYSID)
     mission.phase = Phase.WAIT_DEPARTURE
-    mission.step(10.0, FlightStatus(link_up=True, heartbeat_s=9.9, departure_due=False))
-    assert mission.phase is Phase.WAIT_DEPARTURE
-    mission.step(10.5, FlightStatus(link_up=True, heartbeat_s=10.4, departure_due=True))
-    assert mission.phase is Phase.SET_GUIDED
+    phases = []
+    for t, due in ((10.0, False), (10.5, True)):
+        mission.step(t, FlightStatus(link_up=True, heartbeat_s=t - 0.1, departure_due=due))
+        phases.append(mission.phase)
+    assert phases == [Phase.WAIT_DEPARTURE, Phase.SET_GUIDED]
