@@ -2,8 +2,9 @@
 
 ``PLANNERS`` maps a name to a factory ``(PlannerSettings) -> Planner``. ``PlannerSettings``
 carries what the companion knows that a planner may need (cruise speed, replan period,
-arrival radius, system id, seed) and the raw ``planner:`` section of the scenario file for
-planner-specific settings, which each factory validates itself.
+arrival radius, system id, seed) and the scenario file's ``planner:`` section
+(``PlannerConfig``) for the MDP planners: ``aware`` (distrusts flagged RID, avoids unsafe
+regions) and ``trust-rid`` (the paper's baseline: every RID position is true).
 
 Straight line: fly the line from where the aircraft is to the goal at cruise speed (at most
 8 m/s, the paper's limit), with a position target ``lookahead_s`` ahead on that line and the
@@ -19,11 +20,13 @@ neighbours and regions: the baseline every avoiding planner must beat on NMACs.
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from ridsafe.companion.config import MAX_AIRCRAFT_SPEED_M_S
+from ridsafe.companion.planner import AwarePlanner, TrustRidPlanner
 from ridsafe.companion.planner_api import (
     Planner,
     PlannerDecision,
@@ -31,6 +34,7 @@ from ridsafe.companion.planner_api import (
     PlannerStatus,
     Vec3,
 )
+from ridsafe.companion.planner_config import PlannerConfig
 
 __all__ = ["PLANNERS", "PlannerSettings", "StraightLinePlanner", "make_planner"]
 
@@ -46,7 +50,7 @@ class PlannerSettings:
     approach_radius_m: float = 15.0
     arrival_radius_m: float = 10.0
     seed: int = 0
-    options: Mapping[str, object] = field(default_factory=dict)  # the ``planner:`` section
+    config: PlannerConfig = field(default_factory=PlannerConfig)  # the ``planner:`` section
 
 
 class StraightLinePlanner:
@@ -100,8 +104,32 @@ def _straight_line(settings: PlannerSettings) -> Planner:
     )
 
 
+def _mdp_config(settings: PlannerSettings) -> PlannerConfig:
+    """The planner section with the companion's arrival radius and replan period, so the
+    planner and the mission agree on when the aircraft has arrived."""
+    return dataclasses.replace(
+        settings.config,
+        arrival_radius_m=settings.arrival_radius_m,
+        replan_period_s=settings.replan_period_s,
+    )
+
+
+def _aware(settings: PlannerSettings) -> Planner:
+    planner = AwarePlanner(_mdp_config(settings))
+    planner.warm_up()  # compile (or load) the kernel now, not in the first decision
+    return planner
+
+
+def _trust_rid(settings: PlannerSettings) -> Planner:
+    planner = TrustRidPlanner(_mdp_config(settings))
+    planner.warm_up()
+    return planner
+
+
 PLANNERS: dict[str, Callable[[PlannerSettings], Planner]] = {
     StraightLinePlanner.name: _straight_line,
+    "aware": _aware,
+    "trust-rid": _trust_rid,
 }
 
 
