@@ -76,6 +76,7 @@ __all__ = [
     "enu_to_ned",
     "geodetic_to_ecef",
     "geodetic_to_enu",
+    "geodetic_to_enu_point",
     "geodetic_to_ned",
     "ned_to_enu",
     "ned_to_geodetic",
@@ -198,6 +199,37 @@ def enu_to_geodetic(
     p0, r = _origin_frame(origin)
     p_ecef = np.einsum("ji,...j->...i", r, np.asarray(p_enu_m, dtype=np.float64)) + p0
     return ecef_to_geodetic(p_ecef)
+
+
+def geodetic_to_enu_point(
+    origin: GeodeticOrigin, lat_deg: float, lon_deg: float, alt_m: float
+) -> tuple[float, float, float]:
+    """One point, geodetic -> local ENU metres about ``origin``: the same equations as
+    :func:`geodetic_to_enu` in plain floats, ~10x faster for a single point (the per-message
+    conversions of the GCS and the companions)."""
+    p0, r = _origin_frame_tuples(origin)
+    lat, lon = math.radians(lat_deg), math.radians(lon_deg)
+    sin_lat = math.sin(lat)
+    n = WGS84_A_M / math.sqrt(1.0 - WGS84_E2 * sin_lat * sin_lat)
+    r_xy = (n + alt_m) * math.cos(lat)
+    d = (
+        r_xy * math.cos(lon) - p0[0],
+        r_xy * math.sin(lon) - p0[1],
+        (n * (1.0 - WGS84_E2) + alt_m) * sin_lat - p0[2],
+    )
+    return (
+        r[0][0] * d[0] + r[0][1] * d[1] + r[0][2] * d[2],
+        r[1][0] * d[0] + r[1][1] * d[1] + r[1][2] * d[2],
+        r[2][0] * d[0] + r[2][1] * d[1] + r[2][2] * d[2],
+    )
+
+
+@functools.cache
+def _origin_frame_tuples(
+    origin: GeodeticOrigin,
+) -> tuple[tuple[float, ...], tuple[tuple[float, ...], ...]]:
+    p0, r = _origin_frame(origin)
+    return tuple(p0.tolist()), tuple(tuple(row) for row in r.tolist())
 
 
 def geodetic_to_ned(

@@ -370,6 +370,8 @@ class Companion:
     # -- Remote ID and observations --------------------------------------------------------
 
     def _broadcast_rid(self, now_s: float) -> None:
+        if now_s < self.rid.next_due_s():
+            return
         home = self.own.home
         operator = (
             None if home is None else OperatorLocation(home.lat_deg, home.lon_deg, home.alt_msl_m)
@@ -379,8 +381,9 @@ class Companion:
             self._send(AUTOPILOT, msg)
 
     def _observe(self, now_s: float) -> None:
-        fix = self.own.fix()
-        for heard in self.rssi.poll(now_s):
+        heard_now = self.rssi.poll(now_s)
+        fix = self.own.fix() if heard_now else None
+        for heard in heard_now:
             rx_sim_s = self.sim_time(heard.rx_t_s)
             self.neighbours.update(rx_sim_s, heard.location)
             self.batcher.add(heard, fix, rx_sim_s, self.config.max_extrapolation_s)

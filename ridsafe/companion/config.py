@@ -50,6 +50,8 @@ _STREAM_IDS: dict[str, int] = {
     "local_position_ned": 32,
     "system_time": 2,
     "home_position": 242,
+    "attitude": 30,
+    "sys_status": 1,
 }
 
 
@@ -62,25 +64,28 @@ class OnArrival(enum.Enum):
 
 @dataclass(frozen=True)
 class StreamRatesHz:
-    """Telemetry the companion asks its autopilot for at start (0 = leave as it is)."""
+    """Telemetry the companion asks its autopilot for at start: a rate in Hz, 0 to leave the
+    stream as it is, -1 to turn it off (what the companion does not read costs the link)."""
 
-    global_position_int: float = 10.0
-    local_position_ned: float = 10.0
+    global_position_int: float = 5.0
+    local_position_ned: float = 5.0
     system_time: float = 1.0
     home_position: float = 0.5
+    attitude: float = -1.0
+    sys_status: float = -1.0
 
     def __post_init__(self) -> None:
         for name in _STREAM_IDS:
             value = getattr(self, name)
-            if not (math.isfinite(value) and 0.0 <= value <= 400.0):
-                raise FieldValueError(name, f"expected 0..400 Hz, got {value}")
+            if not (value == -1.0 or (math.isfinite(value) and 0.0 <= value <= 400.0)):
+                raise FieldValueError(name, f"expected -1 (off) or 0..400 Hz, got {value}")
 
     def requests(self) -> tuple[tuple[str, int, float], ...]:
-        """(name, message id, interval in us) for every stream with a rate > 0."""
+        """(name, message id, interval in us; -1 = off) for every stream not left as it is."""
         return tuple(
-            (name, msg_id, 1e6 / getattr(self, name))
+            (name, msg_id, -1.0 if rate < 0 else 1e6 / rate)
             for name, msg_id in _STREAM_IDS.items()
-            if getattr(self, name) > 0.0
+            if (rate := getattr(self, name)) != 0.0
         )
 
 

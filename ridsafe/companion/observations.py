@@ -286,8 +286,9 @@ class OwnTelemetry:
         """WGS-84 -> the autopilot's local NED (needs HOME_POSITION)."""
         if self.home_origin is None or self.home is None:
             raise LookupError("no HOME_POSITION yet")
-        p = frames.geodetic_to_ned(self.home_origin, lat_deg, lon_deg, alt_m)
-        return _vec3(p + np.asarray(self.home.p_ned_m))
+        e, n, u = frames.geodetic_to_enu_point(self.home_origin, lat_deg, lon_deg, alt_m)
+        hn, he, hd = self.home.p_ned_m
+        return (n + hn, e + he, -u + hd)
 
     def to_geodetic(self, p_ned_m: m.Vec3) -> tuple[float, float, float]:
         if self.home_origin is None or self.home is None:

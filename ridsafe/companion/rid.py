@@ -85,6 +85,12 @@ class OwnRidBroadcaster:
         self._location = Periodic(config.rid_location_period_s)
         self._system_update = Periodic(config.rid_system_update_period_s)
 
+    def next_due_s(self) -> float:
+        """When the next message is due (-inf before the first call): callers may skip
+        building the aircraft's state until then."""
+        slots = (self._static, self._system, self._location, self._system_update)
+        return min(-math.inf if p.next_s is None else p.next_s for p in slots) - _EPS_S
+
     def due(
         self,
         now_s: float,

@@ -1,7 +1,11 @@
 """A vehicle's Remote ID transponder: MAVLink component 236 (MAV_COMP_ID_ODID_TXRX_1).
 
 Transmit: an OPEN_DRONE_ID_* message from the companion is encoded to its 25-byte ASTM F3411
-form (rejected inputs are logged and counted, never put on the air) and handed to the radio.
+form (rejected inputs are logged and counted, never put on the air). LOCATION (and
+AUTHENTICATION / MESSAGE_PACK) frames go on the air as they come; the static messages
+(BASIC_ID, SYSTEM, OPERATOR_ID, SELF_ID) are kept and re-broadcast on the transponder's own
+cadence, every ``STATIC_PERIOD_S`` (ASTM F3411 asks for them at least every 3 s), however
+often the companion refreshes them.
 Receive: a frame from the air is decoded and handed to the companion as the matching
 OPEN_DRONE_ID_* message with ``id_or_mac`` set to the sender's radio id, followed by a
 RIDSAFE_RID_RSSI with its signal strength and receive time. Quantisation on the air is
@@ -14,6 +18,7 @@ BASIC_ID, SYSTEM and LOCATION within the last 3 s, otherwise status 1 with the r
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass
 
 from ridsafe.common import codec, f3411
@@ -24,6 +29,7 @@ logger = logging.getLogger(__name__)
 
 TRANSPONDER_COMPONENT = 236
 ARM_STATUS_MAX_AGE_S = 3.0
+STATIC_PERIOD_S = 3.0
 
 _BROADCAST_TYPES = (
     m.OdidBasicId,
@@ -33,6 +39,7 @@ _BROADCAST_TYPES = (
     m.OdidSelfId,
     m.OdidRaw,
 )
+STATIC_TYPES = (m.OdidBasicId, m.OdidSystem, m.OdidOperatorId, m.OdidSelfId)
 _REQUIRED_FOR_ARMING = {"OPEN_DRONE_ID_BASIC_ID", "OPEN_DRONE_ID_SYSTEM", "OPEN_DRONE_ID_LOCATION"}
 
 
@@ -47,18 +54,21 @@ class TransponderCounters:
 class Transponder:
     """Sans-I/O RID transponder of vehicle ``sysid`` whose radio id is ``radio_id``."""
 
-    def __init__(self, sysid: int, radio_id: bytes) -> None:
+    def __init__(self, sysid: int, radio_id: bytes, static_phase_s: float = 0.0) -> None:
         self.sysid = sysid
         self.radio_id = radio_id
         self.counters = TransponderCounters()
         self._last_from_companion_s: dict[str, float] = {}
         self._system: m.OdidSystem | None = None
+        self._static_frames: dict[str, bytes] = {}
+        self._next_static_s = static_phase_s
 
     def heartbeat(self) -> m.Heartbeat:
         return m.Heartbeat(m.MavType.ODID, m.MavAutopilot.INVALID, 0, 0, int(m.MavState.ACTIVE))
 
     def on_message(self, now_s: float, message: m.Message) -> bytes | None:
-        """An ODID message from the companion; returns the F3411 frame to put on the air."""
+        """An ODID message from the companion; returns the F3411 frame to put on the air now
+        (None for a static message, which waits for ``due_static``, or a rejected one)."""
         if isinstance(message, m.OdidSystemUpdate):
             updated = self._apply_system_update(message)
             if updated is None:
@@ -78,8 +88,26 @@ class Transponder:
         self._last_from_companion_s[name] = now_s
         if isinstance(message, m.OdidSystem):
             self._system = message
+        if isinstance(message, STATIC_TYPES):
+            self._static_frames[name] = frame
+            return None
         self.counters.sent += 1
         return frame
+
+    @property
+    def static_frames(self) -> dict[str, bytes]:
+        """The static frames (by MAVLink message name) the next static slot will send."""
+        return dict(self._static_frames)
+
+    def due_static(self, now_s: float) -> list[bytes]:
+        """The static frames to re-broadcast now (every ``STATIC_PERIOD_S``)."""
+        if now_s < self._next_static_s - 1e-9:
+            return []
+        missed = math.floor((now_s - self._next_static_s) / STATIC_PERIOD_S + 1e-9)
+        self._next_static_s += (max(missed, 0) + 1) * STATIC_PERIOD_S
+        frames = list(self._static_frames.values())
+        self.counters.sent += len(frames)
+        return frames
 
     def _apply_system_update(self, update: m.OdidSystemUpdate) -> m.OdidSystem | None:
         """SYSTEM_UPDATE refreshes the operator location of the last full SYSTEM message."""
@@ -107,23 +135,16 @@ class Transponder:
         self, now_s: float, frame: bytes, sender_id: bytes, rssi_dbm: float
     ) -> list[m.Message]:
         """A frame heard on the air -> OPEN_DRONE_ID_* (+ RIDSAFE_RID_RSSI) for the companion."""
-        try:
-            is_pack = f3411.message_type(frame) is f3411.MessageType.MESSAGE_PACK
-            parts = f3411.split_pack(frame) if is_pack else [frame]
-            decoded = [(f3411.decode(part), int(f3411.message_type(part))) for part in parts]
-        except RidsafeError as exc:
-            self.counters.decode_failed += 1
-            logger.warning("transponder %d: undecodable frame: %s", self.sysid, exc)
-            return []
+        return self.hand_over(now_s, decode_frame(frame, sender_id), sender_id, rssi_dbm)
+
+    def hand_over(
+        self, now_s: float, decoded: DecodedFrame, sender_id: bytes, rssi_dbm: float
+    ) -> list[m.Message]:
+        """What this transponder gives its companion for a frame ``decode_frame`` decoded
+        (decoding once serves every receiver of a transmission)."""
+        self.counters.decode_failed += decoded.failures
         out: list[m.Message] = []
-        for (name, fields), msg_type in decoded:
-            tagged = dict(fields, id_or_mac=list(sender_id.ljust(20, b"\x00")))
-            try:
-                message = codec.message_from_fields(name, tagged)
-            except (RidsafeError, ValueError, TypeError) as exc:
-                self.counters.decode_failed += 1
-                logger.warning("transponder %d: cannot hand over %s: %s", self.sysid, name, exc)
-                continue
+        for message, msg_type in decoded.messages:
             self.counters.received += 1
             out.append(message)
             out.append(m.RidRssi(now_s, rssi_dbm, sender_id, msg_type))
@@ -142,3 +163,33 @@ class Transponder:
     def ready_error(self, now_s: float) -> str | None:
         status = self.arm_status(now_s)
         return status.error if status.status else None
+
+
+@dataclass(frozen=True)
+class DecodedFrame:
+    """The ODID messages in one frame (with ``id_or_mac`` = the sender) and their F3411
+    types; ``failures`` counts parts that could not be decoded."""
+
+    messages: tuple[tuple[m.Message, int], ...]
+    failures: int = 0
+
+
+def decode_frame(frame: bytes, sender_id: bytes) -> DecodedFrame:
+    """Decode a frame from the air (a single message or a message pack)."""
+    try:
+        is_pack = f3411.message_type(frame) is f3411.MessageType.MESSAGE_PACK
+        parts = f3411.split_pack(frame) if is_pack else [frame]
+        decoded = [(f3411.decode(part), int(f3411.message_type(part))) for part in parts]
+    except RidsafeError as exc:
+        logger.warning("undecodable frame from %r: %s", sender_id, exc)
+        return DecodedFrame((), 1)
+    messages: list[tuple[m.Message, int]] = []
+    failures = 0
+    for (name, fields), msg_type in decoded:
+        tagged = dict(fields, id_or_mac=list(sender_id.ljust(20, b"\x00")))
+        try:
+            messages.append((codec.message_from_fields(name, tagged), msg_type))
+        except (RidsafeError, ValueError, TypeError) as exc:
+            failures += 1
+            logger.warning("cannot hand over %s from %r: %s", name, sender_id, exc)
+    return DecodedFrame(tuple(messages), failures)

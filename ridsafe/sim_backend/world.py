@@ -45,7 +45,13 @@ from ridsafe.sim_backend.dynamics import EULER, IDX_PSI, POS_ENU, STATE_SIZE, VE
 from ridsafe.sim_backend.radio import RadioChannel, Reception, Transmission
 from ridsafe.sim_backend.spoofer import SpooferBroadcaster, StraightLineMission
 from ridsafe.sim_backend.telemetry import FleetSnapshot, TelemetrySchedule
-from ridsafe.sim_backend.transponder import TRANSPONDER_COMPONENT, Transponder
+from ridsafe.sim_backend.transponder import (
+    STATIC_PERIOD_S,
+    TRANSPONDER_COMPONENT,
+    DecodedFrame,
+    Transponder,
+    decode_frame,
+)
 from ridsafe.sim_backend.vehicles import OctorotorFleet
 
 logger = logging.getLogger(__name__)
@@ -127,8 +133,11 @@ class SimBackend:
             self.n_vehicles, self.config.vehicle, self.config.controller, self._initial_state()
         )
         self.homes = [HomeFrame(scenario.origin, s[POS_ENU]) for s in self._initial_state()]
+        phases = rng.stream(scenario.seed, "sim/transponders").uniform(
+            0.0, STATIC_PERIOD_S, self.n_vehicles
+        )
         self.transponders = [
-            Transponder(i + 1, scenario.serial_of(i + 1).encode("ascii"))
+            Transponder(i + 1, scenario.serial_of(i + 1).encode("ascii"), float(phases[i]))
             for i in range(self.n_vehicles)
         ]
         self.autopilots = [self._make_autopilot(i) for i in range(self.n_vehicles)]
@@ -352,13 +361,21 @@ class SimBackend:
                 self._pending_air.append(Transmission(now_s, i, frame))
 
     def _carry_air(self, now_s: float) -> None:
+        for i, transponder in enumerate(self.transponders):
+            self._pending_air.extend(
+                Transmission(now_s, i, frame) for frame in transponder.due_static(now_s)
+            )
         self.last_transmissions, self._pending_air = self._pending_air, []
         positions = self.fleet.state[:, POS_ENU]
         self.last_receptions = self.radio.deliver(self.last_transmissions, positions)
+        decoded: dict[int, DecodedFrame] = {}  # one decode per transmission, not per receiver
         for rx in self.last_receptions:
             sender = self.transponders[rx.transmission.sender]
-            messages = self.transponders[rx.receiver].receive(
-                now_s, rx.transmission.payload, sender.radio_id, rx.rssi_dbm
+            key = id(rx.transmission)
+            if key not in decoded:
+                decoded[key] = decode_frame(rx.transmission.payload, sender.radio_id)
+            messages = self.transponders[rx.receiver].hand_over(
+                now_s, decoded[key], sender.radio_id, rx.rssi_dbm
             )
             endpoint = self.endpoints.get(endpoint_name(rx.receiver + 1, EndpointKind.COMPANION))
             if endpoint is not None:

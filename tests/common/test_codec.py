@@ -314,3 +314,44 @@ def test_odid_fields_match_mavlink_field_names_and_round_trip() -> None:
     assert fields["latitude"] == 470_000_000 and fields["direction"] == 9000
     assert fields["speed_horizontal"] == 400 and fields["altitude_barometric"] == -1000.0
     assert codec.message_from_fields(name, fields) == loc
+
+
+def test_a_forged_packet_cannot_block_the_genuine_stream_with_a_future_timestamp() -> None:
+    tx, rx = _link_pair(codec.SigningConfig(KEY, 1000), codec.SigningConfig(KEY))
+    assert len(rx.feed(tx.pack(m.LockstepTick(0.1, 1)))) == 1
+    # Same stream (link 0, system 1, component 1), far-future timestamp, wrong key.
+    forger = codec.MavlinkLink(1, 1, codec.SigningConfig(bytes(32), initial_timestamp=10**12))
+    assert rx.feed(forger.pack(m.LockstepTick(0.2, 2))) == []
+    assert len(rx.feed(tx.pack(m.LockstepTick(0.3, 3)))) == 1  # still accepted
+    assert rx.counters.rejected_signature == 1
+
+
+def test_x25_crc_matches_pymavlink() -> None:
+    for payload in (b"", b"\x00", b"123456789", bytes(range(256))):
+        assert codec.x25_crc(payload) == mav.x25crc(bytearray(payload)).crc
+    assert codec.x25_crc(b"123456789") == 0x6F91  # CRC-16/MCRF4XX check value
+
+
+def test_packets_are_byte_identical_to_pymavlinks_signed_and_unsigned() -> None:
+    messages: list[m.Message] = [
+        m.Heartbeat(14, 3, 217, 4, 4),
+        m.StatusText(4, "Arm: Need GUIDED"),  # its "id" field must not shadow the message id
+        m.OdidBasicId(b"SN1", 1, 2, b"1581F4ABC"),
+        m.HomePosition(47.0, 8.0, 400.0, (1.0, 2.0, 3.0)),
+        m.UnsafeRegionMsg(
+            1.0, 2.0, 47.0, 8.0, 60.0, (1, 0, 0, 1, 0, 1), (1, 2, 3), 7.8, 0.05, 3, 0, "S"
+        ),
+        m.LockstepTick(0.0, 0),  # all-zero payload: MAVLink 2 keeps one byte
+    ]
+    for signing in (None, codec.SigningConfig(KEY, 12345, link_id=2)):
+        ours = codec.MavlinkLink(7, 191, signing)
+        reference = mav.MAVLink(None, srcSystem=7, srcComponent=191)
+        if signing is not None:
+            reference.signing.secret_key = KEY
+            reference.signing.sign_outgoing = True
+            reference.signing.link_id = 2
+            reference.signing.timestamp = 12345
+        for message in messages * 2:
+            expected = bytes(codec.to_mavlink(message).pack(reference))
+            reference.seq = (reference.seq + 1) % 256
+            assert ours.pack(message) == expected, type(message).__name__

@@ -31,6 +31,7 @@ from ridsafe.common.frames import (
     enu_to_ned,
     geodetic_to_ecef,
     geodetic_to_enu,
+    geodetic_to_enu_point,
     geodetic_to_ned,
     ned_to_enu,
     ned_to_geodetic,
@@ -357,3 +358,20 @@ def test_course_points_along_the_velocity(north: float, east: float) -> None:
     speed = math.hypot(north, east)
     assert math.cos(course) * speed == pytest.approx(north, abs=1e-9)
     assert math.sin(course) * speed == pytest.approx(east, abs=1e-9)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    lat=st.floats(-89.0, 89.0),
+    lon=st.floats(-180.0, 180.0),
+    d_lat=st.floats(-0.05, 0.05),
+    d_lon=st.floats(-0.05, 0.05),
+    alt=st.floats(-500.0, 5000.0),
+)
+def test_single_point_conversion_equals_the_vectorised_one(
+    lat: float, lon: float, d_lat: float, d_lon: float, alt: float
+) -> None:
+    origin = GeodeticOrigin(lat, lon, 100.0)
+    point = (max(-90.0, min(90.0, lat + d_lat)), lon + d_lon, alt)
+    expected = geodetic_to_enu(origin, *point)
+    assert np.allclose(geodetic_to_enu_point(origin, *point), expected, atol=1e-6, rtol=0)

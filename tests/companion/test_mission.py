@@ -56,7 +56,14 @@ def test_stream_requests_ask_for_the_configured_rates() -> None:
     specs = PHASE_COMMANDS[Phase.REQUEST_STREAMS](CompanionConfig())
     requested = {int(s.params[0]): s.params[1] for s in specs}
     # GLOBAL_POSITION_INT 10 Hz, LOCAL_POSITION_NED 10 Hz, SYSTEM_TIME 1 Hz, HOME 0.5 Hz
-    assert requested == {33: 100_000.0, 32: 100_000.0, 2: 1_000_000.0, 242: 2_000_000.0}
+    assert requested == {
+        33: 200_000.0,
+        32: 200_000.0,
+        2: 1_000_000.0,
+        242: 2_000_000.0,
+        30: -1.0,  # ATTITUDE and SYS_STATUS: not read, so turned off
+        1: -1.0,
+    }
     assert all(s.command is MavCmd.SET_MESSAGE_INTERVAL and not s.required for s in specs)
 
 
@@ -67,6 +74,8 @@ def test_stream_message_ids_are_the_dialects() -> None:
         mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED,
         mav.MAVLINK_MSG_ID_SYSTEM_TIME,
         mav.MAVLINK_MSG_ID_HOME_POSITION,
+        mav.MAVLINK_MSG_ID_ATTITUDE,
+        mav.MAVLINK_MSG_ID_SYS_STATUS,
     }
 
 

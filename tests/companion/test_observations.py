@@ -238,7 +238,8 @@ def test_batching_reports_every_heard_broadcast_exactly_once(
         assert all(o.t_s > t - period - 1e-9 for o in batch)  # nothing waits over a period
         sent.extend(batch)
     sent.extend(batcher.take_all())
-    assert sorted(o.rid_timestamp_s for o in sent) == sorted(round(a, 1) for a in arrivals)
+    expected = [round(rid.seconds_after_hour(1_767_268_800.0 + a), 1) for a in arrivals]
+    assert sorted(o.rid_timestamp_s for o in sent) == sorted(expected)
     assert batcher.counters.reported == batcher.counters.heard == len(arrivals)
 
 

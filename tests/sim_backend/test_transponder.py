@@ -17,7 +17,7 @@ import pytest
 from ridsafe.common import codec, f3411, rid
 from ridsafe.common import messages as m
 from ridsafe.common.dialect import ridsafe_v20 as mav
-from ridsafe.sim_backend.transponder import ARM_STATUS_MAX_AGE_S, Transponder
+from ridsafe.sim_backend.transponder import ARM_STATUS_MAX_AGE_S, STATIC_TYPES, Transponder
 
 SERIAL = "RSAF800000001"
 # The sender's radio id differs from its serial, so a receiver that copied the uas_id (or its
@@ -112,18 +112,32 @@ CASES: list[tuple[str, m.Message, str, int, dict[str, object]]] = [
 CASE_IDS = [case[0] for case in CASES]
 
 
+def _on_air(tx: Transponder, now_s: float, message: m.Message) -> bytes | None:
+    """The frame the transponder puts on the air for ``message``: at once for LOCATION,
+    at its next static slot for the static messages (SYSTEM_UPDATE refreshes SYSTEM)."""
+    frame = tx.on_message(now_s, message)
+    if frame is not None or not isinstance(message, (*STATIC_TYPES, m.OdidSystemUpdate)):
+        return frame
+    name = "OPEN_DRONE_ID_SYSTEM"
+    if not isinstance(message, m.OdidSystemUpdate):
+        name, _ = codec.odid_fields(message)
+    return tx.static_frames.get(name)
+
+
 @pytest.mark.parametrize(("label", "message", "name", "odid_type", "fields"), CASES, ids=CASE_IDS)
 def test_each_broadcast_goes_on_the_air_as_its_f3411_bytes(
     label: str, message: m.Message, name: str, odid_type: int, fields: dict[str, object]
 ) -> None:
     tx = Transponder(1, SENDER_ID)
-    frame = tx.on_message(0.0, message)
+    frame = _on_air(tx, 0.0, message)
     assert frame is not None
     assert frame == f3411.encode(name, fields)  # the hand-written MAVLink fields
     assert frame == f3411.encode(*codec.odid_fields(message))  # the codec's fields
     assert len(frame) == 25
     assert frame[0] == odid_type << 4 | 2  # type nibble, protocol version 2
-    assert (tx.counters.sent, tx.counters.encode_rejected) == (1, 0)
+    assert tx.counters.encode_rejected == 0
+    # LOCATION goes on the air at once; a static message at the next static slot.
+    assert tx.counters.sent + len(tx.due_static(0.0)) == 1
 
 
 def _location(**changes: object) -> m.OdidLocation:
@@ -159,8 +173,8 @@ def test_inputs_the_reference_rejects_are_counted_and_not_sent(message: m.Messag
 
 def test_a_rejected_location_does_not_count_towards_arming() -> None:
     tx = Transponder(1, SENDER_ID)
-    assert tx.on_message(0.0, rid.basic_id(SERIAL)) is not None
-    assert tx.on_message(0.0, _system()) is not None
+    assert _on_air(tx, 0.0, rid.basic_id(SERIAL)) is not None
+    assert _on_air(tx, 0.0, _system()) is not None
     assert tx.on_message(0.0, _location(lat_deg=91.0)) is None
     assert tx.arm_status(0.1) == m.OdidArmStatus(1, "missing LOCATION")
 
@@ -214,8 +228,8 @@ def test_system_update_before_any_system_is_ignored() -> None:
 
 def test_system_update_after_a_system_sends_the_updated_system() -> None:
     tx = Transponder(1, SENDER_ID)
-    assert tx.on_message(0.0, FULL_SYSTEM) is not None
-    frame = tx.on_message(1.0, UPDATE)
+    assert _on_air(tx, 0.0, FULL_SYSTEM) is not None
+    frame = _on_air(tx, 1.0, UPDATE)
     assert frame is not None
     expected = {
         "operator_location_type": 1,
@@ -232,7 +246,6 @@ def test_system_update_after_a_system_sends_the_updated_system() -> None:
         "timestamp": 220_000_060,  # from the update
     }
     assert frame == f3411.encode("OPEN_DRONE_ID_SYSTEM", expected)
-    assert tx.counters.sent == 2
 
 
 def test_system_update_keeps_the_system_fresh_for_arming() -> None:
@@ -294,7 +307,7 @@ def test_a_received_frame_becomes_the_message_tagged_with_the_sender_then_its_rs
     label: str, message: m.Message, name: str, odid_type: int, fields: dict[str, object]
 ) -> None:
     tx, rx = Transponder(1, SENDER_ID), Transponder(2, b"RSAF800000002")
-    frame = tx.on_message(0.0, message)
+    frame = _on_air(tx, 0.0, message)
     assert frame is not None
     out = rx.receive(2.5, frame, SENDER_ID, -71.25)
     assert len(out) == 2
@@ -410,7 +423,7 @@ def test_arm_status_needs_basic_id_system_and_location_within_three_seconds() ->
 def test_receiving_frames_does_not_make_the_transponder_ready() -> None:
     tx, rx = Transponder(1, SENDER_ID), Transponder(2, b"RSAF800000002")
     for label, message, *_ in CASES:
-        frame = tx.on_message(0.0, message)
+        frame = _on_air(tx, 0.0, message)
         assert frame is not None, label
         rx.receive(0.0, frame, SENDER_ID, -50.0)
     assert tx.arm_status(0.1).status == 0
@@ -423,3 +436,16 @@ def test_heartbeat_is_an_odid_component() -> None:
     assert hb.autopilot == 8  # MAV_AUTOPILOT_INVALID: not a flight controller
     assert hb.system_status == int(m.MavState.ACTIVE)
     assert not hb.armed
+
+
+def test_static_messages_go_on_the_air_every_three_seconds_whatever_the_companion_does() -> None:
+    tx = Transponder(1, SENDER_ID, static_phase_s=0.5)
+    sent: list[tuple[float, int]] = []
+    for k in range(0, 1001):  # 10 s; the companion refreshes BASIC_ID every 0.1 s
+        t = k * 0.01
+        if k % 10 == 0:
+            assert tx.on_message(t, rid.basic_id(SERIAL)) is None
+        sent.extend((t, f[0] >> 4) for f in tx.due_static(t))
+    assert [round(t, 2) for t, _ in sent] == [0.5, 3.5, 6.5, 9.5]
+    assert {kind for _, kind in sent} == {0}  # BASIC_ID only: nothing else was given
+    assert tx.on_message(10.0, rid.location(OWN_STATE)) is not None  # positions: at once
