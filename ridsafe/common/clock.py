@@ -97,3 +97,27 @@ class MonotonicClock:
 def _check_finite(name: str, value: float) -> None:
     if not math.isfinite(value):
         raise ClockError(f"expected a finite {name}, got {value!r}")
+
+
+class EpochClock:
+    """Sim time that reads 0 at the UNIX instant ``t0_unix`` shared by every process of a
+    live run: ``now_s = speed * (time_source() - t0_unix)`` (negative before it).
+
+    ``time_source`` defaults to :func:`time.time` (the only clock processes share)."""
+
+    def __init__(
+        self, speed: float, t0_unix: float, time_source: Callable[[], float] = time.time
+    ) -> None:
+        if not (math.isfinite(speed) and speed > 0.0 and math.isfinite(t0_unix)):
+            raise ClockError(
+                f"EpochClock: expected speed > 0 and finite t0, got {speed}, {t0_unix}"
+            )
+        self.speed = float(speed)
+        self.t0_unix = float(t0_unix)
+        self._time_source = time_source
+
+    def now_s(self) -> float:
+        return (self._time_source() - self.t0_unix) * self.speed
+
+    def wall_delay_s(self, sim_dt_s: float) -> float:
+        return max(sim_dt_s, 0.0) / self.speed

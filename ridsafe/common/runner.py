@@ -10,27 +10,45 @@ An endpoint with a fixed remote (``udpout``) always sends there; one without (``
 replies to the last peer it heard from, and until it has heard from one, what the core
 sends there is counted in ``unsent_no_peer`` and dropped, as a serial port with nothing
 attached would drop it.
+
+A multi-peer endpoint (named in ``multi_peer``) is one socket that many peers talk to, like
+a ground station's 14550: what arrives from ``host:port`` is handed to the core as
+``"name@host:port"``, and what the core returns for ``"name@host:port"`` is sent to that
+address (a malformed address is counted in ``unsent_bad_peer`` and dropped). Plain
+``"name"`` still means "the last peer heard".
 """
 
 from __future__ import annotations
 
+import ipaddress
 import logging
 import selectors
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
 from typing import Protocol
 
-from ridsafe.common.clock import MonotonicClock
 from ridsafe.common.errors import UdpError
-from ridsafe.common.udp import UdpEndpoint
+from ridsafe.common.udp import Address, UdpEndpoint
 
 logger = logging.getLogger(__name__)
+
+PEER_SEPARATOR = "@"
+_MAX_CACHED_PEERS = 4096
 
 Datagrams = list[tuple[str, bytes]]
 
 
 class SansIoCore(Protocol):
     def handle(self, now_s: float, inbound: Datagrams) -> Datagrams: ...
+
+
+class RunnerClock(Protocol):
+    """What the runner needs of a clock (``MonotonicClock`` is one): sim time now, and the
+    wall time to wait for some sim time to pass."""
+
+    def now_s(self) -> float: ...
+
+    def wall_delay_s(self, sim_dt_s: float) -> float: ...
 
 
 @dataclass
@@ -41,6 +59,7 @@ class RunnerStats:
     unsent_no_peer: int = 0
     unknown_endpoint_out: int = 0
     late_ticks: int = 0
+    unsent_bad_peer: int = 0
 
 
 class UdpRunner:
@@ -50,11 +69,18 @@ class UdpRunner:
         self,
         core: SansIoCore,
         endpoints: Mapping[str, UdpEndpoint],
-        clock: MonotonicClock,
+        clock: RunnerClock,
         tick_s: float = 0.01,
+        multi_peer: Collection[str] = (),
     ) -> None:
         if tick_s <= 0:
             raise ValueError(f"tick_s must be > 0, got {tick_s}")
+        unknown = sorted(set(multi_peer) - set(endpoints))
+        if unknown:
+            raise ValueError(f"multi_peer names {unknown} are not endpoints ({sorted(endpoints)})")
+        self.multi_peer = frozenset(multi_peer)
+        self._peer_names: dict[Address, str] = {}
+        self._peer_addresses: dict[str, Address | None] = {}
         self.core = core
         self.endpoints = dict(endpoints)
         self.clock = clock
@@ -96,24 +122,48 @@ class UdpRunner:
     def _step(self, now_s: float) -> None:
         inbound: Datagrams = []
         for name, endpoint in self.endpoints.items():
-            for data, _addr in endpoint.recv_all():
-                inbound.append((name, data))
+            multi = name in self.multi_peer
+            for data, addr in endpoint.recv_all():
+                inbound.append((self._peer_name(name, addr) if multi else name, data))
         self.stats.datagrams_in += len(inbound)
         outbound = self.core.handle(now_s, inbound)
         for name, data in outbound:
             self._send(name, data)
         self.stats.ticks += 1
 
+    def _peer_name(self, name: str, addr: Address) -> str:
+        peer = self._peer_names.get(addr)
+        if peer is None:
+            if len(self._peer_names) >= _MAX_CACHED_PEERS:
+                self._peer_names.clear()
+            peer = f"{addr[0]}:{addr[1]}"
+            self._peer_names[addr] = peer
+        return f"{name}{PEER_SEPARATOR}{peer}"
+
+    def _peer_address(self, peer: str) -> Address | None:
+        if peer not in self._peer_addresses:
+            if len(self._peer_addresses) >= _MAX_CACHED_PEERS:
+                self._peer_addresses.clear()
+            self._peer_addresses[peer] = parse_peer(peer)
+        return self._peer_addresses[peer]
+
     def _send(self, name: str, data: bytes) -> None:
         endpoint = self.endpoints.get(name)
+        addr: Address | None = None
         if endpoint is None:
-            self.stats.unknown_endpoint_out += 1
-            return
-        if endpoint.destination is None:
+            base, _, peer = name.partition(PEER_SEPARATOR)
+            if base not in self.multi_peer:
+                self.stats.unknown_endpoint_out += 1
+                return
+            endpoint, addr = self.endpoints[base], self._peer_address(peer)
+            if addr is None:
+                self.stats.unsent_bad_peer += 1
+                return
+        elif endpoint.destination is None:
             self.stats.unsent_no_peer += 1
             return
         try:
-            if endpoint.send(data):
+            if endpoint.send(data, addr):
                 self.stats.datagrams_out += 1
         except UdpError as exc:
             self.stats.unsent_no_peer += 1
@@ -123,3 +173,15 @@ class UdpRunner:
         self._selector.close()
         for endpoint in self.endpoints.values():
             endpoint.close()
+
+
+def parse_peer(peer: str) -> Address | None:
+    """``"a.b.c.d:port"`` (as the runner names peers) -> (host, port), or None if malformed."""
+    host, sep, port = peer.rpartition(":")
+    if not sep or not port.isdigit() or not 1 <= int(port) <= 65535:
+        return None
+    try:
+        ipaddress.IPv4Address(host)
+    except ValueError:
+        return None
+    return host, int(port)

@@ -1,0 +1,170 @@
+"""Benchmark (not a test): GCS estimation pipeline compute per 0.25 s update, and the
+Monte-Carlo sweep behind the estimator choice.
+
+Default: compute per update (p50/p99/max) with 16 benign aircraft + 1 spoofer, 120 s of
+seeded synthetic traffic (``tests/gcs/synthetic.py``, the sim radio's model at 1 dB), random
+broadcast phases and the worst case of all phases aligned. Target p99 <= 2 ms.
+
+``--mc``: per receiver count (4, 8, 16) and start (receivers airborne, or at the default
+scenario's depots), over ``--seeds`` seeds:
+
+- detection with the real detectors (no forced alert): delay from the spoofer's first
+  broadcast heard by 4 aircraft, false alerts on benign aircraft per aircraft-hour, per
+  transmission ROC AUC of each detector;
+- localisation with the alert forced at 5 s (the paper's protocol, so estimators are compared
+  over the same cycles): containment at alpha = 0.05 (mean and min over runs), RMSE and
+  horizontal RMSE (mean over runs), for our RSSI Gaussian-sum IMM and the paper's NLLS -> IMM
+  (Jacobian fix covariance; and the paper's fixed R = 400 I / 50 I).
+
+Run: ``.venv/bin/python bench/bench_gcs.py [--mc] [--seeds 30]``
+
+BLAS threads: the pipeline's matrices are tiny; OpenBLAS's worker threads only add latency,
+and on a loaded 2-core machine a call that waits for a preempted worker stalls a whole
+scheduler tick (4 ms). This script sets ``OPENBLAS_NUM_THREADS=1`` unless the environment
+already says otherwise; a GCS process should do the same before importing numpy.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import argparse
+import math
+import sys
+import time
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from ridsafe.common.config import with_overrides
+from ridsafe.common.messages import RidsafeDetector
+from ridsafe.gcs.pipeline import EstimationPipeline
+from ridsafe.gcs.pipeline_config import ForcedAlertConfig, PipelineConfig
+from tests.gcs.synthetic import SPOOFER_ID, RunMetrics, Scene, make_traffic, run_pipeline
+
+FORCED = ForcedAlertConfig(enabled=True, uas_id=SPOOFER_ID, time_s=5.0)
+ESTIMATORS: dict[str, dict[str, object]] = {
+    "rssi_imm (ours, default)": {},
+    "nlls_imm (paper, Jacobian R)": {"estimator": "nlls_imm"},
+    "nlls_imm (paper, R 400/50)": {"estimator": "nlls_imm", "imm.measurement_covariance": "paper"},
+}
+
+
+def _percentiles(samples: list[float]) -> str:
+    ms = np.asarray(samples) * 1e3
+    return (
+        f"p50 {np.percentile(ms, 50):.3f} ms  p99 {np.percentile(ms, 99):.3f} ms  "
+        f"max {ms.max():.3f} ms  ({ms.size} updates)"
+    )
+
+
+def bench_compute(seeds: int) -> None:
+    EstimationPipeline()  # load the compiled kernels once, as a GCS does at start
+    for aligned in (False, True):
+        for start in ("airborne", "depots"):
+            samples: list[float] = []
+            per_run: list[float] = []
+            for seed in range(seeds):
+                scene = Scene(seed=seed, n_receivers=16, start=start, aligned_phases=aligned)
+                compute = run_pipeline(make_traffic(scene), PipelineConfig()).compute_s
+                samples += compute
+                per_run.append(float(np.percentile(compute, 99)))
+            phases = "aligned phases" if aligned else "random phases "
+            print(
+                f"16 aircraft + spoofer, {start:8s}, {phases}: {_percentiles(samples)}; "
+                f"median of per-run p99 {np.median(per_run) * 1e3:.3f} ms"
+            )
+
+
+def _auc(scores_pos: list[float], scores_neg: list[float]) -> float:
+    """Mann-Whitney AUC: P(a spoofer transmission outscores a benign one)."""
+    if not scores_pos or not scores_neg:
+        return math.nan
+    neg = np.sort(np.asarray(scores_neg))
+    pos = np.asarray(scores_pos)
+    below = np.searchsorted(neg, pos, side="left")
+    ties = np.searchsorted(neg, pos, side="right") - below
+    return float((below + 0.5 * ties).sum() / (pos.size * neg.size))
+
+
+def mc_detection(n: int, start: str, seeds: int) -> None:
+    delays, hours, false_alerts = [], 0.0, 0
+    flagged: dict[RidsafeDetector, int] = defaultdict(int)
+    scores: dict[RidsafeDetector, tuple[list[float], list[float]]] = defaultdict(lambda: ([], []))
+    for seed in range(seeds):
+        traffic = make_traffic(Scene(seed=seed, n_receivers=n, start=start))  # type: ignore[arg-type]
+        m = run_pipeline(traffic, PipelineConfig(), keep_results=True)
+        delays.append(m.delay_s)
+        false_alerts += m.false_alerts
+        hours += n * traffic.scene.duration_s / 3600.0
+        would_alert: dict[RidsafeDetector, set[str]] = defaultdict(set)
+        for spoofer, r in m.results:
+            scores[r.detector][0 if spoofer else 1].append(r.statistic / r.threshold)
+            if r.decision and not spoofer:
+                would_alert[r.detector].add(r.uas_id)
+        for det, ids in would_alert.items():
+            flagged[det] += len(ids)
+    d = np.asarray(delays)
+    print(
+        f"  detection n={n:2d} {start:8s}: delay median {np.nanmedian(d):.2f} s, "
+        f"p90 {np.nanpercentile(d, 90):.2f} s, max {np.nanmax(d):.2f} s, missed "
+        f"{int(np.isnan(d).sum())}/{seeds}; false alerts {false_alerts} in {hours:.1f} "
+        f"aircraft-h ({false_alerts / hours:.3f}/aircraft-h)"
+    )
+    for det in sorted(scores):
+        pos, neg = scores[det]
+        print(
+            f"      {det.name:12s} AUC {_auc(pos, neg):.3f}  benign aircraft it would flag: "
+            f"{flagged[det]} ({flagged[det] / hours:.3f}/aircraft-h)"
+        )
+
+
+def mc_localisation(n: int, start: str, seeds: int) -> None:
+    for name, overrides in ESTIMATORS.items():
+        cfg = with_overrides(PipelineConfig(forced_alert=FORCED), overrides)
+        runs: list[RunMetrics] = []
+        for seed in range(seeds):
+            scene = Scene(seed=seed, n_receivers=n, start=start)  # type: ignore[arg-type]
+            runs.append(run_pipeline(make_traffic(scene), cfg))
+        cont = np.array([r.containment_rate for r in runs])
+        rmse = np.array([r.rmse_m for r in runs])
+        rmse_h = np.array([r.rmse_h_m for r in runs])
+        first = np.array([r.first_region_s for r in runs]) - 5.0
+        comp = [c for r in runs for c in r.compute_s]
+        print(
+            f"  {name:30s} n={n:2d} {start:8s}: containment {np.nanmean(cont):.3f} "
+            f"(min {np.nanmin(cont):.3f}), RMSE {np.nanmean(rmse):6.1f} +/- "
+            f"{np.nanstd(rmse):5.1f} m,"
+            f" horizontal {np.nanmean(rmse_h):5.1f} m, region after {np.nanmedian(first):.2f} s"
+            f" (max {np.nanmax(first):.2f}), compute p99 {np.percentile(comp, 99) * 1e3:.2f} ms"
+        )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--mc", action="store_true", help="run the Monte-Carlo sweep too")
+    parser.add_argument("--seeds", type=int, default=30)
+    parser.add_argument("--receivers", default="4,8,16")
+    args = parser.parse_args()
+    t0 = time.perf_counter()
+    threads = os.environ["OPENBLAS_NUM_THREADS"]
+    print(f"GCS compute per 0.25 s update (detection to regions), BLAS threads {threads}:")
+    bench_compute(min(args.seeds, 10))
+    if args.mc:
+        counts = [int(c) for c in args.receivers.split(",")]
+        print(f"\nMonte-Carlo, {args.seeds} seeds, 120 s, RSSI noise 1 dB, 50 m offset spoofer:")
+        for start in ("airborne", "depots"):
+            for n in counts:
+                mc_detection(n, start, args.seeds)
+            for n in counts:
+                mc_localisation(n, start, args.seeds)
+    print(f"\n(wall time {time.perf_counter() - t0:.0f} s)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,570 @@
+r"""The GCS core, sans I/O: ``handle(now_s, inbound) -> outbound``.
+
+One UDP port that every companion talks to, like a real ground station on 14550. Inbound
+endpoint names are ``"companions@<peer>"``, ``<peer>`` an opaque sender key (``host:port``
+over UDP, ``c3`` in an in-process router). Per peer the GCS keeps one ``MavlinkLink`` (the
+parser's stream state, and with signing the replay window), learns the MAVLink system ids
+that speak through it, and treats it as live while it is heard within ``peer_timeout_s``.
+
+Each call:
+
+1. parse every datagram on its peer's link; observation reports go to :class:`Ingest`;
+2. drop peers not heard for ``peer_timeout_s`` from the send list (they return when heard);
+3. every ``cycle_s`` of sim time: close due transmissions, ``pipeline.step``, log the cycle
+   (``/gcs/cycle`` with the compute time, ``/gcs/detector_stats``, ``/gcs/alerts``,
+   ``/gcs/tracks``, ``/gcs/unsafe_regions``) and send alerts and regions to every live peer;
+4. a GCS HEARTBEAT (MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID) at ``heartbeat_hz``; ``/app/counters``
+   every ``counters_period_s`` and from :meth:`Gcs.finish`.
+
+Regions go out in the companions' frames: centre ENU -> WGS-84 (``frames.enu_to_geodetic``),
+velocity and covariance ENU -> NED with the permutation
+
+    T = [[0, 1, 0], [1, 0, 0], [0, 0, -1]],   v_ned = T v_enu,   P_ned = T P_enu T^T
+
+sent as the upper triangle (xx, xy, xz, yy, yz, zz). A region is valid until
+``min(region.valid_until_s, now + region_validity_s)``; a deleted track's last region is sent
+once more with ``RegionFlags.DELETED``. Alerts are sent when they change, and raised ones
+again every ``alert_repeat_s`` (with their decision time) so late joiners learn them.
+
+Nothing here raises on input: bad bytes, bad reports, unknown endpoints, too many peers and a
+failing pipeline step are counted, logged (warnings rate-limited) and survived.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ridsafe.common import frames, topics
+from ridsafe.common import messages as m
+from ridsafe.common.codec import LinkCounters, MavlinkLink, Received, SigningConfig
+from ridsafe.common.frames import GeodeticOrigin
+from ridsafe.common.logsink import LogSink
+from ridsafe.gcs.config import GCS_COMPONENT_ID, GCS_SYSTEM_ID, ClockSource, GcsConfig
+from ridsafe.gcs.ingest import Ingest, RateLimitedLog, check_values
+from ridsafe.gcs.pipeline_api import (
+    AlertChange,
+    CycleOutput,
+    FloatArray,
+    GcsPipeline,
+    TrackEstimate,
+    Transmission,
+    UnsafeRegion,
+)
+
+logger = logging.getLogger(__name__)
+
+COMPANIONS_ENDPOINT = "companions"
+MAX_DATAGRAM_BYTES = 1400
+ENU_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+_UPPER = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
+_LINK_FIELDS = tuple(f.name for f in dataclasses.fields(LinkCounters) if f.type == "int")
+_EPS_S = 1e-9
+
+Datagrams = list[tuple[str, bytes]]
+Cov6 = tuple[float, float, float, float, float, float]
+
+
+def peer_endpoint(peer: str) -> str:
+    """The endpoint name of one companion peer: ``companions@<peer>``."""
+    return f"{COMPANIONS_ENDPOINT}@{peer}"
+
+
+# --- frame conversions at the boundary (pure) ------------------------------------------------
+
+
+def cov_enu_to_ned(cov_enu_m2: FloatArray) -> Cov6:
+    """(3, 3) ENU covariance -> NED upper triangle (xx, xy, xz, yy, yz, zz): T P T^T."""
+    p = ENU_NED @ np.asarray(cov_enu_m2, dtype=np.float64) @ ENU_NED.T
+    xx, xy, xz, yy, yz, zz = (float(p[i, j]) for i, j in _UPPER)
+    return (xx, xy, xz, yy, yz, zz)
+
+
+def region_message(
+    origin: GeodeticOrigin, region: UnsafeRegion, now_s: float, validity_s: float, flags: int
+) -> m.UnsafeRegionMsg:
+    """The wire form of one unsafe region (see the module docstring)."""
+    lat, lon, alt = frames.enu_to_geodetic(origin, region.center_enu_m)
+    v = ENU_NED @ np.asarray(region.v_enu_m_s, dtype=np.float64)
+    return m.UnsafeRegionMsg(
+        t_s=region.t_s,
+        valid_until_s=min(region.valid_until_s, now_s + validity_s),
+        center_lat_deg=float(lat),
+        center_lon_deg=float(lon),
+        center_alt_m=float(alt),
+        cov_ned_m2=cov_enu_to_ned(region.cov_enu_m2),
+        v_ned_m_s=(float(v[0]), float(v[1]), float(v[2])),
+        chi2_threshold=region.chi2_threshold,
+        alpha=region.alpha,
+        track_id=region.track_id,
+        flags=flags,
+        uas_id=region.uas_id,
+    )
+
+
+def _region_is_finite(region: UnsafeRegion) -> bool:
+    arrays = (region.center_enu_m, region.cov_enu_m2, region.v_enu_m_s)
+    scalars = (region.chi2_threshold, region.alpha, region.valid_until_s, region.t_s)
+    return all(bool(np.isfinite(a).all()) for a in arrays) and all(map(math.isfinite, scalars))
+
+
+# --- state -----------------------------------------------------------------------------------
+
+
+@dataclass
+class _Peer:
+    key: str
+    link: MavlinkLink
+    sysids: set[int] = field(default_factory=set)
+    last_heard_s: float | None = None  # runner time of the last accepted packet
+    live: bool = False
+    out: list[bytes] = field(default_factory=list)
+
+
+@dataclass
+class GcsCounters:
+    """What the GCS itself refused or did (the links and ingest count their own)."""
+
+    unknown_endpoint: int = 0
+    peer_limit: int = 0
+    peers_evicted: int = 0
+    peers_timed_out: int = 0
+    bad_sysid: int = 0
+    ignored_messages: int = 0
+    cycles: int = 0
+    cycles_skipped: int = 0
+    pipeline_errors: int = 0
+    invalid_regions: int = 0
+    alerts_sent: int = 0
+    regions_sent: int = 0
+    heartbeats_sent: int = 0
+    datagrams_out: int = 0
+
+
+class _TimeBase:
+    """GCS sim time: the runner's time (LOCAL), or the runner's time plus the offset fixed by
+    the first valid report's receive time (PEERS; unknown until then)."""
+
+    def __init__(self, source: ClockSource) -> None:
+        self.source = source
+        self.offset_s: float | None = 0.0 if source is ClockSource.LOCAL else None
+
+    def sim_s(self, now_s: float) -> float | None:
+        return None if self.offset_s is None else now_s + self.offset_s
+
+    def lock(self, now_s: float, peer_t_s: float) -> None:
+        self.offset_s = peer_t_s - now_s
+        logger.info("sim time locked to the companions: offset %+.3f s", self.offset_s)
+
+
+class Gcs:
+    """The ground station core; see the module docstring."""
+
+    def __init__(
+        self,
+        config: GcsConfig,
+        origin: GeodeticOrigin,
+        pipeline: GcsPipeline,
+        sink: LogSink,
+        signing: SigningConfig | None = None,
+    ) -> None:
+        self.config = config
+        self.origin = origin
+        self.pipeline = pipeline
+        self.sink = sink
+        self.signing = signing
+        self.ingest = Ingest(config, origin)
+        self.counters = GcsCounters()
+        self._peers: dict[str, _Peer] = {}
+        self._sysid_peer: dict[int, str] = {}
+        self._retired_links = LinkCounters()
+        self._time = _TimeBase(config.clock)
+        self._next_cycle: int | None = 0 if config.clock is ClockSource.LOCAL else None
+        self._next_heartbeat_s = 0.0
+        self._next_counters_s: float | None = None
+        self._raised: dict[tuple[str, m.RidsafeDetector], tuple[float, AlertChange]] = {}
+        self._next_alert_repeat_s = 0.0
+        self._last_region: dict[str, m.UnsafeRegionMsg] = {}
+        self._accepted_at_cycle = 0
+        self._warn = RateLimitedLog(logger, config.warn_interval_s)
+
+    # -- queries ------------------------------------------------------------------------------
+
+    @property
+    def live_peers(self) -> tuple[str, ...]:
+        return tuple(k for k, p in self._peers.items() if p.live)
+
+    @property
+    def sysid_peers(self) -> dict[int, str]:
+        """Which peer key each companion system id was last heard through."""
+        return dict(self._sysid_peer)
+
+    def sim_time_s(self, now_s: float) -> float | None:
+        """GCS sim time at runner time ``now_s`` (None until locked, PEERS clock)."""
+        return self._time.sim_s(now_s)
+
+    def link_counters(self) -> LinkCounters:
+        """Every peer link's counters summed (peers evicted since included)."""
+        total = dataclasses.replace(self._retired_links)
+        for peer in self._peers.values():
+            _add_link_counters(total, peer.link.counters)
+        return total
+
+    def counter_values(self) -> dict[str, int]:
+        links = self.link_counters()
+        out = {f"link_{name}": int(getattr(links, name)) for name in _LINK_FIELDS}
+        out.update(self.ingest.counters.as_dict())
+        out.update(dataclasses.asdict(self.counters))
+        out["peers_known"] = len(self._peers)
+        out["peers_live"] = len(self.live_peers)
+        return out
+
+    # -- the sans-I/O step --------------------------------------------------------------------
+
+    def handle(self, now_s: float, inbound: Iterable[tuple[str, bytes]]) -> Datagrams:
+        """Consume inbound datagrams, run what is due at ``now_s``, return outbound datagrams."""
+        for name, data in inbound:
+            self._receive(now_s, name, data)
+        self._expire_peers(now_s)
+        sim_now = self._time.sim_s(now_s)
+        if sim_now is not None:
+            self._maybe_cycle(sim_now)
+            self._maybe_log_counters(sim_now)
+        if now_s >= self._next_heartbeat_s - _EPS_S:
+            self._next_heartbeat_s = now_s + 1.0 / self.config.heartbeat_hz
+            heartbeat = m.Heartbeat(
+                int(m.MavType.GCS), int(m.MavAutopilot.INVALID), 0, 0, int(m.MavState.ACTIVE)
+            )
+            self._broadcast([heartbeat])
+            self.counters.heartbeats_sent += len(self.live_peers)
+        return self._flush()
+
+    def finish(self, now_s: float) -> None:
+        """Log the final ``/app/counters`` (call once when the run ends)."""
+        sim_now = self._time.sim_s(now_s)
+        self._log_counters(now_s if sim_now is None else sim_now)
+
+    # -- inbound ------------------------------------------------------------------------------
+
+    def _receive(self, now_s: float, name: str, data: bytes) -> None:
+        base, sep, key = name.partition("@")
+        if base != COMPANIONS_ENDPOINT or not sep or not key:
+            self.counters.unknown_endpoint += 1
+            self._warn.warn(now_s, "endpoint", f"datagram on unknown endpoint {name!r} dropped")
+            return
+        peer = self._peers.get(key) or self._new_peer(now_s, key)
+        if peer is None:
+            return
+        for received in peer.link.feed(data):
+            self._accept(now_s, peer, received)
+
+    def _new_peer(self, now_s: float, key: str) -> _Peer | None:
+        if len(self._peers) >= self.config.max_peers and not self._evict_dead_peer():
+            self.counters.peer_limit += 1
+            limit = self.config.max_peers
+            message = f"datagram from new peer {key} dropped: {limit} peers, none dead"
+            self._warn.warn(now_s, "peer_limit", message)
+            return None
+        peer = _Peer(key, MavlinkLink(GCS_SYSTEM_ID, GCS_COMPONENT_ID, self.signing))
+        self._peers[key] = peer
+        return peer
+
+    def _evict_dead_peer(self) -> bool:
+        dead = [p for p in self._peers.values() if not p.live]
+        if not dead:
+            return False
+        victim = min(dead, key=lambda p: -math.inf if p.last_heard_s is None else p.last_heard_s)
+        del self._peers[victim.key]
+        _add_link_counters(self._retired_links, victim.link.counters)
+        for sysid in victim.sysids:
+            if self._sysid_peer.get(sysid) == victim.key:
+                del self._sysid_peer[sysid]
+        self.counters.peers_evicted += 1
+        return True
+
+    def _accept(self, now_s: float, peer: _Peer, received: Received) -> None:
+        sysid = received.src_system
+        if sysid in (0, GCS_SYSTEM_ID):
+            self.counters.bad_sysid += 1
+            self._warn.warn(now_s, "sysid", f"peer {peer.key}: packet from system {sysid} dropped")
+            return
+        self._heard(now_s, peer, sysid)
+        message = received.message
+        if isinstance(message, m.Observation):
+            self._observe(now_s, sysid, message)
+        elif not isinstance(message, m.Heartbeat):
+            self.counters.ignored_messages += 1
+
+    def _heard(self, now_s: float, peer: _Peer, sysid: int) -> None:
+        peer.last_heard_s = now_s
+        if not peer.live:
+            peer.live = True
+            logger.info("companion peer %s (system %d) is live", peer.key, sysid)
+        previous = self._sysid_peer.get(sysid)
+        if previous == peer.key:
+            return
+        self._sysid_peer[sysid] = peer.key
+        peer.sysids.add(sysid)
+        old = self._peers.get(previous) if previous is not None else None
+        if old is not None:
+            old.sysids.discard(sysid)
+            logger.info("system %d moved from peer %s to %s", sysid, old.key, peer.key)
+            if not old.sysids and old.live:
+                old.live = False
+                logger.info("peer %s has no systems left: no longer sent to", old.key)
+
+    def _observe(self, now_s: float, rx_sysid: int, obs: m.Observation) -> None:
+        if self._time.offset_s is None and check_values(obs, self.config) is None:
+            self._time.lock(now_s, obs.t_s)
+            self._next_cycle = math.ceil(obs.t_s / self.config.cycle_s - _EPS_S)
+        sim_now = self._time.sim_s(now_s)
+        reason = self.ingest.add(obs.t_s if sim_now is None else sim_now, rx_sysid, obs)
+        if reason is not None:
+            self._warn.warn(
+                now_s,
+                f"reject/{reason.value}",
+                f"report from system {rx_sysid} about {obs.uas_id!r} rejected: {reason.value}",
+            )
+
+    def _expire_peers(self, now_s: float) -> None:
+        for peer in self._peers.values():
+            if not peer.live or peer.last_heard_s is None:
+                continue
+            if now_s - peer.last_heard_s > self.config.peer_timeout_s:
+                peer.live = False
+                self.counters.peers_timed_out += 1
+                logger.warning(
+                    "companion peer %s (systems %s) not heard for %.1f s: no longer sent to",
+                    peer.key,
+                    sorted(peer.sysids),
+                    now_s - peer.last_heard_s,
+                )
+
+    # -- the cycle ----------------------------------------------------------------------------
+
+    def _maybe_cycle(self, sim_now: float) -> None:
+        index = self._next_cycle
+        if index is None or sim_now < index * self.config.cycle_s - _EPS_S:
+            return
+        current = math.floor(sim_now / self.config.cycle_s + _EPS_S)
+        self.counters.cycles_skipped += max(0, current - index)
+        self._next_cycle = current + 1
+        self._cycle(sim_now)
+
+    def _cycle(self, now_s: float) -> None:
+        start = time.perf_counter()  # compute time only, never sim time
+        closed = self.ingest.close_due(now_s)
+        output, error = self._step_pipeline(now_s, closed)
+        pipeline_ms = (time.perf_counter() - start) * 1e3
+        messages: list[m.Message] = self._alert_messages(now_s, output)
+        regions = self._region_messages(now_s, output)
+        messages.extend(regions)
+        self._broadcast(messages)
+        compute_ms = (time.perf_counter() - start) * 1e3
+        self.counters.cycles += 1
+        accepted = self.ingest.counters.accepted
+        self.sink.log(
+            topics.GCS_CYCLE,
+            now_s,
+            {
+                "compute_ms": compute_ms,
+                "pipeline_ms": pipeline_ms,
+                "n_observations": accepted - self._accepted_at_cycle,
+                "n_transmissions": len(closed),
+                "n_tracks": len(output.tracks),
+                "n_regions": len(output.regions),
+                "n_alerts_raised": len(self._raised),
+                "n_peers_live": len(self.live_peers),
+                "open_groups": self.ingest.open_groups,
+                "deleted_tracks": list(output.deleted_tracks),
+                "error": error,
+            },
+        )
+        self._accepted_at_cycle = accepted
+        self._log_output(now_s, output, regions)
+
+    def _step_pipeline(
+        self, now_s: float, closed: list[Transmission]
+    ) -> tuple[CycleOutput, str | None]:
+        try:
+            return self.pipeline.step(now_s, closed), None
+        except Exception as exc:  # a pipeline bug must not take the GCS down: count, log
+            self.counters.pipeline_errors += 1
+            error = f"{type(exc).__name__}: {exc}"
+            if self.counters.pipeline_errors == 1:  # the first with its traceback
+                logger.exception("pipeline step at t=%.2f s failed (counted, continuing)", now_s)
+            else:
+                self._warn.warn(now_s, "pipeline", f"pipeline step at t={now_s:.2f} s: {error}")
+            return CycleOutput(), error
+
+    def _alert_messages(self, now_s: float, output: CycleOutput) -> list[m.Message]:
+        changed: set[tuple[str, m.RidsafeDetector]] = set()
+        messages: list[m.Message] = []
+        for change in output.alert_changes:
+            key = (change.uas_id, change.detector)
+            changed.add(key)
+            if change.state is m.AlertState.RAISED:
+                self._raised[key] = (now_s, change)
+            else:
+                self._raised.pop(key, None)
+            messages.append(_alert(now_s, change))
+        if now_s >= self._next_alert_repeat_s - _EPS_S:
+            self._next_alert_repeat_s = now_s + self.config.alert_repeat_s
+            repeats = [(t, c) for k, (t, c) in self._raised.items() if k not in changed]
+            messages.extend(_alert(t, c) for t, c in repeats)
+        self.counters.alerts_sent += len(messages)
+        return messages
+
+    def _region_messages(self, now_s: float, output: CycleOutput) -> list[m.UnsafeRegionMsg]:
+        coasting = {t.track_id for t in output.tracks if not t.fix}
+        messages: list[m.UnsafeRegionMsg] = []
+        for region in output.regions:
+            if not _region_is_finite(region):
+                self.counters.invalid_regions += 1
+                message = f"non-finite region for {region.uas_id!r} not sent"
+                self._warn.warn(now_s, "region", message)
+                continue
+            flags = m.RegionFlags.COASTING if region.track_id in coasting else m.RegionFlags.NONE
+            msg = region_message(
+                self.origin, region, now_s, self.config.region_validity_s, int(flags)
+            )
+            self._last_region[region.uas_id] = msg
+            messages.append(msg)
+        for uas_id in output.deleted_tracks:
+            last = self._last_region.pop(uas_id, None)
+            if last is not None:
+                deleted = int(m.RegionFlags.DELETED)
+                messages.append(dataclasses.replace(last, valid_until_s=now_s, flags=deleted))
+        self.counters.regions_sent += len(messages)
+        return messages
+
+    # -- logging ------------------------------------------------------------------------------
+
+    def _log_output(self, now_s: float, output: CycleOutput, sent: list[m.UnsafeRegionMsg]) -> None:
+        for result in output.detector_results:
+            self.sink.log(
+                topics.DETECTOR_STATS,
+                now_s,
+                {
+                    "uas_id": result.uas_id,
+                    "detector": result.detector.name.lower(),
+                    "statistic": float(result.statistic),
+                    "threshold": float(result.threshold),
+                    "decision": bool(result.decision),
+                },
+            )
+        for change in output.alert_changes:
+            self.sink.log(topics.ALERTS, now_s, _alert_record(change))
+        for track in output.tracks:
+            self.sink.log(topics.TRACKS, now_s, _track_record(track))
+        by_track = {(s.uas_id, s.track_id): s for s in sent if not s.flags & m.RegionFlags.DELETED}
+        for region in output.regions:
+            msg = by_track.get((region.uas_id, region.track_id))
+            if msg is not None:
+                self.sink.log(topics.REGIONS, now_s, _region_record(region, msg))
+
+    def _maybe_log_counters(self, sim_now: float) -> None:
+        if self._next_counters_s is None:
+            self._next_counters_s = sim_now + self.config.counters_period_s
+        elif sim_now >= self._next_counters_s - _EPS_S:
+            self._next_counters_s = sim_now + self.config.counters_period_s
+            self._log_counters(sim_now)
+
+    def _log_counters(self, t_s: float) -> None:
+        self.sink.log(topics.APP_COUNTERS, t_s, {"app": "gcs", "counters": self.counter_values()})
+
+    # -- outbound -----------------------------------------------------------------------------
+
+    def _broadcast(self, messages: list[m.Message]) -> None:
+        if not messages:
+            return
+        for peer in self._peers.values():
+            if peer.live:
+                peer.out.extend(peer.link.pack(msg) for msg in messages)
+
+    def _flush(self) -> Datagrams:
+        out: Datagrams = []
+        for peer in self._peers.values():
+            if peer.out:
+                name = peer_endpoint(peer.key)
+                out.extend((name, d) for d in _datagrams(peer.out))
+                peer.out = []
+        self.counters.datagrams_out += len(out)
+        return out
+
+
+# --- helpers ---------------------------------------------------------------------------------
+
+
+def _alert(t_s: float, change: AlertChange) -> m.SpoofAlert:
+    return m.SpoofAlert(
+        t_s=t_s,
+        statistic=float(change.statistic),
+        threshold=float(change.threshold),
+        detector=int(change.detector),
+        state=int(change.state),
+        uas_id=change.uas_id,
+    )
+
+
+def _alert_record(change: AlertChange) -> dict[str, object]:
+    return {
+        "uas_id": change.uas_id,
+        "detector": change.detector.name.lower(),
+        "statistic": float(change.statistic),
+        "threshold": float(change.threshold),
+        "state": change.state.name.lower(),
+    }
+
+
+def _track_record(track: TrackEstimate) -> dict[str, object]:
+    return {
+        "uas_id": track.uas_id,
+        "track_id": track.track_id,
+        "p_enu_m": np.asarray(track.p_enu_m, dtype=np.float64).tolist(),
+        "cov_enu_m2": np.asarray(track.cov_enu_m2, dtype=np.float64).tolist(),
+        "v_enu_m_s": np.asarray(track.v_enu_m_s, dtype=np.float64).tolist(),
+        "mode_probabilities": np.asarray(track.mode_probabilities, dtype=np.float64).tolist(),
+        "fix": bool(track.fix),
+        "last_fix_s": float(track.last_fix_s),
+    }
+
+
+def _region_record(region: UnsafeRegion, sent: m.UnsafeRegionMsg) -> dict[str, object]:
+    return {
+        "uas_id": region.uas_id,
+        "track_id": region.track_id,
+        "center_enu_m": np.asarray(region.center_enu_m, dtype=np.float64).tolist(),
+        "cov_enu_m2": np.asarray(region.cov_enu_m2, dtype=np.float64).tolist(),
+        "v_enu_m_s": np.asarray(region.v_enu_m_s, dtype=np.float64).tolist(),
+        "chi2_threshold": float(region.chi2_threshold),
+        "alpha": float(region.alpha),
+        "valid_until_s": sent.valid_until_s,
+        "semi_axes_m": np.asarray(region.semi_axes_m, dtype=np.float64).tolist(),
+        "flags": sent.flags,
+    }
+
+
+def _add_link_counters(total: LinkCounters, more: LinkCounters) -> None:
+    for name in _LINK_FIELDS:
+        setattr(total, name, getattr(total, name) + getattr(more, name))
+
+
+def _datagrams(packets: list[bytes]) -> list[bytes]:
+    """Join packets into datagrams of at most MAX_DATAGRAM_BYTES (never splitting one)."""
+    out: list[bytes] = []
+    current = bytearray()
+    for packet in packets:
+        if current and len(current) + len(packet) > MAX_DATAGRAM_BYTES:
+            out.append(bytes(current))
+            current = bytearray()
+        current += packet
+    if current:
+        out.append(bytes(current))
+    return out

@@ -1,0 +1,307 @@
+"""Observation reports -> transmissions: validation, grouping, bounded history. Pure (no I/O).
+
+Each companion reports every RID location broadcast it heard (``messages.Observation``,
+geodetic). The GCS turns one report into one :class:`Reception` in the scenario ENU frame
+about the origin (``frames.geodetic_to_enu``) and groups the receptions of one broadcast by
+its key ``(uas_id, rid_timestamp_s)``. A group opens at its first reception (GCS sim time
+``t0``) and closes once ``now_s - t0 >= group_window_s``, so receptions of one broadcast that
+arrive over a few ticks end up together; closed groups become
+``pipeline_api.Transmission`` objects, receptions sorted by receiver id.
+
+A report is rejected, counted by :class:`RejectReason` and never raised, when:
+
+- its id is empty; any value is NaN/inf; a latitude/longitude is out of range; its RSSI or an
+  altitude is outside the configured plausible range; a position is farther than
+  ``max_distance_m`` from the origin;
+- its receive time ``t`` is in the future (``t > now + future_tolerance_s``) or older than the
+  history window (``t < now - history_window_s``);
+- the same receiver already reported this transmission (duplicate), the transmission already
+  closed (late), or too many transmissions are open.
+
+Claimed velocity (ENU) from the broadcast's course ``c`` (clockwise from north) and speeds::
+
+    v = (s_h sin c, s_h cos c, s_v)
+
+``None`` when a speed is unknown, or the course is unknown at a speed that needs one.
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+import math
+from collections import OrderedDict, deque
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ridsafe.common import frames
+from ridsafe.common.frames import GeodeticOrigin
+from ridsafe.common.messages import Observation, Vec3
+from ridsafe.gcs.config import GcsConfig
+from ridsafe.gcs.pipeline_api import Transmission, readonly
+
+logger = logging.getLogger(__name__)
+
+GroupKey = tuple[str, float]
+#: Below this claimed ground speed an unknown course still gives a (vertical-only) velocity.
+HOVER_SPEED_M_S = 0.05
+_TIME_EPS_S = 1e-9
+
+
+class RejectReason(enum.Enum):
+    EMPTY_ID = "empty_id"
+    NON_FINITE = "non_finite"
+    LAT_LON_RANGE = "lat_lon_range"
+    RSSI_RANGE = "rssi_range"
+    ALTITUDE_RANGE = "altitude_range"
+    DISTANCE_RANGE = "distance_range"
+    FUTURE_TIME = "future_time"
+    TOO_OLD = "too_old"
+    DUPLICATE = "duplicate"
+    LATE = "late"
+    TOO_MANY_GROUPS = "too_many_groups"
+
+
+@dataclass(frozen=True, slots=True)
+class Reception:
+    """One receiver's report of one broadcast, in the scenario ENU frame."""
+
+    rx_sysid: int
+    t_s: float
+    rx_p_enu_m: Vec3
+    rssi_dbm: float
+
+
+# --- checks (pure functions) ---------------------------------------------------------------
+
+
+def _floats(obs: Observation) -> tuple[float, ...]:
+    optional = (
+        obs.claimed_course_deg,
+        obs.claimed_speed_horizontal_m_s,
+        obs.claimed_speed_vertical_m_s,
+    )
+    required = (
+        obs.t_s,
+        obs.rx_lat_deg,
+        obs.rx_lon_deg,
+        obs.rx_alt_m,
+        obs.claimed_lat_deg,
+        obs.claimed_lon_deg,
+        obs.claimed_alt_m,
+        obs.rid_timestamp_s,
+        obs.rssi_dbm,
+    )
+    return required + tuple(v for v in optional if v is not None)
+
+
+def check_values(obs: Observation, config: GcsConfig) -> RejectReason | None:
+    """The first reason the report's own values are implausible, or None."""
+    if not obs.uas_id.strip("\x00 "):
+        return RejectReason.EMPTY_ID
+    if not all(math.isfinite(v) for v in _floats(obs)):
+        return RejectReason.NON_FINITE
+    for lat, lon in ((obs.rx_lat_deg, obs.rx_lon_deg), (obs.claimed_lat_deg, obs.claimed_lon_deg)):
+        if abs(lat) > 90.0 or abs(lon) > 180.0:
+            return RejectReason.LAT_LON_RANGE
+    if not config.rssi_min_dbm <= obs.rssi_dbm <= config.rssi_max_dbm:
+        return RejectReason.RSSI_RANGE
+    for alt in (obs.rx_alt_m, obs.claimed_alt_m):
+        if not config.alt_min_m <= alt <= config.alt_max_m:
+            return RejectReason.ALTITUDE_RANGE
+    return None
+
+
+def check_time(t_s: float, now_s: float, config: GcsConfig) -> RejectReason | None:
+    """FUTURE_TIME / TOO_OLD for a receive time ``t_s`` seen at GCS sim time ``now_s``."""
+    if t_s > now_s + config.future_tolerance_s:
+        return RejectReason.FUTURE_TIME
+    if t_s < now_s - config.history_window_s:
+        return RejectReason.TOO_OLD
+    return None
+
+
+def claimed_velocity_enu(obs: Observation) -> Vec3 | None:
+    """ENU velocity the broadcast claims (see the module docstring), or None."""
+    speed_h, speed_v = obs.claimed_speed_horizontal_m_s, obs.claimed_speed_vertical_m_s
+    if speed_h is None or speed_v is None:
+        return None
+    if obs.claimed_course_deg is None:
+        return (0.0, 0.0, speed_v) if speed_h < HOVER_SPEED_M_S else None
+    course = math.radians(obs.claimed_course_deg)
+    return (speed_h * math.sin(course), speed_h * math.cos(course), speed_v)
+
+
+def positions_enu(origin: GeodeticOrigin, obs: Observation) -> tuple[Vec3, Vec3]:
+    """(receiver, claimed) positions in the scenario ENU frame about ``origin``."""
+    rx = frames.geodetic_to_enu_point(origin, obs.rx_lat_deg, obs.rx_lon_deg, obs.rx_alt_m)
+    claimed = frames.geodetic_to_enu_point(
+        origin, obs.claimed_lat_deg, obs.claimed_lon_deg, obs.claimed_alt_m
+    )
+    return rx, claimed
+
+
+# --- grouping --------------------------------------------------------------------------------
+
+
+@dataclass
+class _Group:
+    uas_id: str
+    rid_timestamp_s: float
+    opened_s: float
+    claimed_p_enu_m: Vec3
+    claimed_v_enu_m_s: Vec3 | None
+    receptions: dict[int, Reception] = field(default_factory=dict)
+
+    def transmission(self) -> Transmission:
+        rxs = [self.receptions[k] for k in sorted(self.receptions)]
+        velocity = None if self.claimed_v_enu_m_s is None else readonly(self.claimed_v_enu_m_s)
+        sysids = np.array([r.rx_sysid for r in rxs], dtype=np.int64)
+        sysids.setflags(write=False)
+        return Transmission(
+            uas_id=self.uas_id,
+            rid_timestamp_s=self.rid_timestamp_s,
+            claimed_p_enu_m=readonly(self.claimed_p_enu_m),
+            claimed_v_enu_m_s=velocity,
+            rx_sysid=sysids,
+            rx_p_enu_m=readonly(np.reshape([r.rx_p_enu_m for r in rxs], (len(rxs), 3))),
+            rx_t_s=readonly([r.t_s for r in rxs]),
+            rssi_dbm=readonly([r.rssi_dbm for r in rxs]),
+        )
+
+
+def group_key(uas_id: str, rid_timestamp_s: float) -> GroupKey:
+    """Key of one broadcast (the timestamp rounded to 1 ms: it travels as a float32)."""
+    return uas_id, round(rid_timestamp_s, 3)
+
+
+@dataclass
+class IngestCounters:
+    accepted: int = 0
+    transmissions: int = 0
+    evicted_transmitters: int = 0
+    rejected: dict[RejectReason, int] = field(default_factory=dict)
+
+    def as_dict(self) -> dict[str, int]:
+        out = {
+            "observations_accepted": self.accepted,
+            "transmissions_closed": self.transmissions,
+            "transmitters_evicted": self.evicted_transmitters,
+        }
+        out.update({f"rejected_{r.value}": n for r, n in sorted(self.rejected.items(), key=str)})
+        return out
+
+
+class Ingest:
+    """Validated receptions grouped by transmission, and a bounded history per transmitter.
+
+    ``add(now_s, rx_sysid, obs)`` takes one report (``rx_sysid``: the MAVLink system id that
+    sent it) and returns None if kept, else why not. ``close_due(now_s)`` returns the
+    transmissions whose window has passed, oldest first, and records them in the history.
+    """
+
+    def __init__(self, config: GcsConfig, origin: GeodeticOrigin) -> None:
+        self.config = config
+        self.origin = origin
+        self.counters = IngestCounters()
+        self._open: dict[GroupKey, _Group] = {}
+        self._closed: dict[GroupKey, float] = {}  # key -> when it closed (sim time)
+        self._history: OrderedDict[str, deque[Transmission]] = OrderedDict()
+
+    @property
+    def open_groups(self) -> int:
+        return len(self._open)
+
+    @property
+    def transmitters(self) -> tuple[str, ...]:
+        """Claimed ids with a history, least recently updated first."""
+        return tuple(self._history)
+
+    def history(self, uas_id: str) -> tuple[Transmission, ...]:
+        """Recent closed transmissions of ``uas_id``, oldest first (at most the configured)."""
+        return tuple(self._history.get(uas_id, ()))
+
+    def add(self, now_s: float, rx_sysid: int, obs: Observation) -> RejectReason | None:
+        reason = self._admit(now_s, rx_sysid, obs)
+        if reason is None:
+            self.counters.accepted += 1
+        else:
+            self.counters.rejected[reason] = self.counters.rejected.get(reason, 0) + 1
+        return reason
+
+    def _admit(self, now_s: float, rx_sysid: int, obs: Observation) -> RejectReason | None:
+        reason = check_values(obs, self.config) or check_time(obs.t_s, now_s, self.config)
+        if reason is not None:
+            return reason
+        rx_p, claimed_p = positions_enu(self.origin, obs)
+        limit = self.config.max_distance_m
+        if math.hypot(*rx_p) > limit or math.hypot(*claimed_p) > limit:
+            return RejectReason.DISTANCE_RANGE
+        key = group_key(obs.uas_id, obs.rid_timestamp_s)
+        if key in self._closed:
+            return RejectReason.LATE
+        group = self._open.get(key)
+        if group is None:
+            if len(self._open) >= self.config.max_open_groups:
+                return RejectReason.TOO_MANY_GROUPS
+            velocity = claimed_velocity_enu(obs)
+            group = _Group(obs.uas_id, obs.rid_timestamp_s, now_s, claimed_p, velocity)
+            self._open[key] = group
+        elif rx_sysid in group.receptions:
+            return RejectReason.DUPLICATE
+        group.receptions[rx_sysid] = Reception(rx_sysid, obs.t_s, rx_p, obs.rssi_dbm)
+        return None
+
+    def close_due(self, now_s: float) -> list[Transmission]:
+        window = self.config.group_window_s
+        due = [k for k, g in self._open.items() if now_s - g.opened_s >= window - _TIME_EPS_S]
+        closed = [self._open.pop(k).transmission() for k in due]
+        closed.sort(key=lambda t: (t.t_s, t.uas_id))
+        for key in due:
+            self._closed[key] = now_s
+        for transmission in closed:
+            self._remember(transmission)
+        self.counters.transmissions += len(closed)
+        self._forget_closed_keys(now_s)
+        return closed
+
+    def _remember(self, transmission: Transmission) -> None:
+        uas_id = transmission.uas_id
+        history = self._history.get(uas_id)
+        if history is None:
+            history = deque(maxlen=self.config.history_per_transmitter)
+            self._history[uas_id] = history
+            if len(self._history) > self.config.max_transmitters:
+                evicted, _ = self._history.popitem(last=False)
+                self.counters.evicted_transmitters += 1
+                logger.info("history of %r evicted (max_transmitters reached)", evicted)
+        self._history.move_to_end(uas_id)
+        history.append(transmission)
+
+    def _forget_closed_keys(self, now_s: float) -> None:
+        horizon = now_s - self.config.history_window_s
+        for key in [k for k, t in self._closed.items() if t < horizon]:
+            del self._closed[key]
+
+
+class RateLimitedLog:
+    """At most one WARNING per key and ``interval_s`` of sim time; the rest go to DEBUG and
+    are summarised ("n more since") in the next warning."""
+
+    def __init__(self, log: logging.Logger, interval_s: float) -> None:
+        self._log = log
+        self._interval_s = interval_s
+        self._last: dict[str, float] = {}
+        self._suppressed: dict[str, int] = {}
+
+    def warn(self, now_s: float, key: str, message: str) -> None:
+        last = self._last.get(key)
+        if last is not None and now_s - last < self._interval_s:
+            self._suppressed[key] = self._suppressed.get(key, 0) + 1
+            self._log.debug("%s", message)
+            return
+        more = self._suppressed.pop(key, 0)
+        suffix = f" ({more} more since the last warning)" if more else ""
+        self._last[key] = now_s
+        self._log.warning("%s%s", message, suffix)

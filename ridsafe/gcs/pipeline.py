@@ -1,0 +1,291 @@
+"""The GCS estimation pipeline: detection -> localisation -> IMM tracking -> unsafe regions.
+
+``EstimationPipeline.step(now_s, transmissions)`` (the ``GcsPipeline`` protocol of
+``pipeline_api.py``) is called every GCS cycle (0.25 s) with the transmissions that closed
+since the last cycle, and answers what it decided. Each cycle:
+
+1. every transmission (in time order) goes through its claimed transmitter's detectors
+   (a ``TransmitterMonitor`` per uas_id heard, benign ones too) -> ``DetectorResult``s;
+   it is kept ``max(backfill_s, window_s)`` seconds for track initiation, and updates the
+   uas_id's track if there is one;
+2. alerts: the first decision of an alerting detector (``detection.alerting``) raises the
+   uas_id's alert, once; with ``forced_alert.enabled`` the configured uas_id is raised with
+   detector FORCED at ``time_s`` (and the real detectors only report unless
+   ``detectors_also_alert``);
+3. every alerted uas_id without a track gets one from its recent transmissions;
+4. a track whose transmitter was silent ``silence_timeout_s`` is deleted and its alert
+   CLEARED (an alert latches while the transmitter is heard: a spoofer that turns honest
+   keeps its region until it goes quiet; after a clear, new evidence raises it again);
+5. every live track is predicted to ``now_s`` -> ``TrackEstimate`` and ``UnsafeRegion``.
+
+The compute time of each cycle is logged (DEBUG) and kept in ``compute_s``. The matrices are
+tiny: run the GCS with ``OPENBLAS_NUM_THREADS=1`` (set before numpy is imported); BLAS worker
+threads only add latency, and on a loaded two-core machine a call waiting for a preempted
+worker stalls a whole scheduler tick (4 ms), which is what the p99 then shows.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections import deque
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ridsafe.common.messages import AlertState, RidsafeDetector
+from ridsafe.common.pathloss import LOSS_AT_1M_2400MHZ_DB
+from ridsafe.gcs.detection import TransmitterMonitor
+from ridsafe.gcs.pipeline_api import (
+    AlertChange,
+    CycleOutput,
+    DetectorResult,
+    Transmission,
+    UnsafeRegion,
+    readonly,
+)
+from ridsafe.gcs.pipeline_config import PipelineConfig, TrackConfig
+from ridsafe.gcs.tracks import Track, finite, initiate
+from ridsafe.gcs.unsafe_region import make_region
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["EstimationPipeline"]
+
+#: A transmitter's detector memory is dropped after this much silence (seconds).
+FORGET_AFTER_S = 60.0
+#: How many cycles' compute times are kept for ``compute_s``.
+COMPUTE_HISTORY = 100_000
+
+
+@dataclass
+class _Alert:
+    detector: RidsafeDetector
+    raised_s: float
+
+
+@dataclass
+class _Heard:
+    """One claimed transmitter: its detectors and its recent transmissions."""
+
+    monitor: TransmitterMonitor
+    recent: deque[Transmission]
+    last_heard_s: float
+    tried_init_at_s: float = -float("inf")  # newest transmission a track start has seen
+
+
+def warm_up() -> None:
+    """Load (or compile) every numba kernel once, so no cycle of a run pays for it: one
+    small transmission through detection, a track start and an update."""
+    rx = np.array([[0.0, 0.0, 50.0], [400.0, 0.0, 80.0], [0.0, 400.0, 40.0], [400.0, 400, 60]])
+    p = np.array([150.0, 250.0, 60.0])
+    rssi = 20.0 - 20.0 * np.log10(np.linalg.norm(rx - p, axis=1)) - LOSS_AT_1M_2400MHZ_DB
+    txs = [
+        Transmission(
+            "warm-up",
+            t,
+            readonly(p),
+            None,
+            np.arange(1, 5, dtype=np.int64),
+            readonly(rx),
+            readonly(np.full(4, t)),
+            readonly(rssi),
+        )
+        for t in (0.0, 1.0, 2.0)
+    ]
+    cfg = PipelineConfig(tracks=TrackConfig(max_init_std_m=0.0))
+    monitor = TransmitterMonitor("warm-up", cfg.detection, cfg.rssi_sigma_db)
+    for tx in txs:
+        monitor.observe(tx)
+    track = initiate("warm-up", 0, txs[:2], cfg)
+    if track is not None:
+        track.update(txs[2])
+
+
+def _finite(tx: Transmission) -> bool:
+    return bool(
+        np.all(np.isfinite(tx.claimed_p_enu_m))
+        and np.all(np.isfinite(tx.rx_p_enu_m))
+        and np.all(np.isfinite(tx.rssi_dbm))
+        and np.all(np.isfinite(tx.rx_t_s))
+    )
+
+
+class EstimationPipeline:
+    """Sans-I/O: state lives here, time comes in as ``now_s``, nothing reads a clock except
+    the compute-time measurement. The first construction in a process warms the compiled
+    kernels up (``warm_up``)."""
+
+    _warm = False
+
+    def __init__(self, config: PipelineConfig | None = None) -> None:
+        if not EstimationPipeline._warm:
+            warm_up()
+            EstimationPipeline._warm = True
+        self.config = config if config is not None else PipelineConfig()
+        self._heard: dict[str, _Heard] = {}
+        self._alerts: dict[str, _Alert] = {}
+        self._tracks: dict[str, Track] = {}
+        self._next_track_id = 1
+        self._forced_done = False
+        self.compute_s: deque[float] = deque(maxlen=COMPUTE_HISTORY)
+
+    # --- the GcsPipeline protocol ---------------------------------------------------------
+
+    def step(self, now_s: float, transmissions: Sequence[Transmission]) -> CycleOutput:
+        start = time.perf_counter()
+        for track in self._tracks.values():
+            track.fixed_this_cycle = False
+        results: list[DetectorResult] = []
+        changes: list[AlertChange] = []
+        for tx in sorted(transmissions, key=lambda t: t.t_s):
+            if not _finite(tx):
+                logger.warning("transmission of %s with non-finite values ignored", tx.uas_id)
+                continue
+            tx_results = self._detect(tx)
+            results.extend(tx_results)
+            changes.extend(self._maybe_raise(tx.uas_id, tx.t_s, tx_results))
+            live = self._tracks.get(tx.uas_id)
+            if live is not None:
+                live.update(tx)
+        changes.extend(self._forced(now_s))
+        self._initiate_tracks()
+        deleted, cleared = self._delete_silent(now_s)
+        changes.extend(cleared)
+        out = self._outputs(now_s, results, changes, deleted)
+        elapsed = time.perf_counter() - start
+        self.compute_s.append(elapsed)
+        logger.debug(
+            "gcs cycle t=%.2f s: %d transmissions, %d tracks, compute %.3f ms",
+            now_s,
+            len(transmissions),
+            len(self._tracks),
+            elapsed * 1e3,
+        )
+        return out
+
+    # --- detection and alerts -------------------------------------------------------------
+
+    def _detect(self, tx: Transmission) -> tuple[DetectorResult, ...]:
+        cfg = self.config
+        heard = self._heard.get(tx.uas_id)
+        if heard is None:
+            monitor = TransmitterMonitor(tx.uas_id, cfg.detection, cfg.rssi_sigma_db)
+            heard = self._heard[tx.uas_id] = _Heard(monitor, deque(), tx.t_s)
+        heard.last_heard_s = max(heard.last_heard_s, tx.t_s)
+        keep_s = max(cfg.tracks.backfill_s, cfg.detection.window_s)
+        heard.recent.append(tx)
+        while heard.recent and heard.recent[0].t_s < tx.t_s - keep_s:
+            heard.recent.popleft()
+        return heard.monitor.observe(tx)
+
+    def _detectors_may_alert(self) -> bool:
+        forced = self.config.forced_alert
+        return not forced.enabled or forced.detectors_also_alert
+
+    def _maybe_raise(
+        self, uas_id: str, t_s: float, results: Sequence[DetectorResult]
+    ) -> list[AlertChange]:
+        if uas_id in self._alerts or not self._detectors_may_alert():
+            return []
+        by_detector = {r.detector: r for r in results}
+        for det in self.config.detection.alerting:
+            r = by_detector.get(det)
+            if r is not None and r.decision:
+                self._alerts[uas_id] = _Alert(det, t_s)
+                logger.info("alert raised on %s by %s at %.2f s", uas_id, det.name, t_s)
+                return [AlertChange(uas_id, det, r.statistic, r.threshold, AlertState.RAISED)]
+        return []
+
+    def _forced(self, now_s: float) -> list[AlertChange]:
+        forced = self.config.forced_alert
+        if not forced.enabled or self._forced_done or now_s < forced.time_s:
+            return []
+        self._forced_done = True
+        if forced.uas_id in self._alerts:
+            return []
+        self._alerts[forced.uas_id] = _Alert(RidsafeDetector.FORCED, now_s)
+        logger.info("forced alert on %s at %.2f s", forced.uas_id, now_s)
+        # A forced alert has no test: statistic 1 over threshold 0.
+        return [AlertChange(forced.uas_id, RidsafeDetector.FORCED, 1.0, 0.0, AlertState.RAISED)]
+
+    # --- tracks ---------------------------------------------------------------------------
+
+    def _initiate_tracks(self) -> None:
+        for uas_id in self._alerts:
+            if uas_id in self._tracks:
+                continue
+            heard = self._heard.get(uas_id)
+            if heard is None or not heard.recent or heard.recent[-1].t_s <= heard.tried_init_at_s:
+                continue
+            tried = heard.tried_init_at_s
+            heard.tried_init_at_s = heard.recent[-1].t_s
+            track = initiate(uas_id, self._next_track_id, list(heard.recent), self.config, tried)
+            if track is not None:
+                self._tracks[uas_id] = track
+                self._next_track_id += 1
+                logger.info("track %d started on %s", track.track_id, uas_id)
+
+    def _delete_silent(self, now_s: float) -> tuple[list[str], list[AlertChange]]:
+        timeout = self.config.tracks.silence_timeout_s
+        deleted: list[str] = []
+        cleared: list[AlertChange] = []
+        for uas_id, alert in list(self._alerts.items()):
+            heard = self._heard.get(uas_id)
+            last = max(alert.raised_s, heard.last_heard_s if heard else -float("inf"))
+            if now_s - last <= timeout:
+                continue
+            del self._alerts[uas_id]
+            cleared.append(AlertChange(uas_id, alert.detector, 0.0, 0.0, AlertState.CLEARED))
+            if self._tracks.pop(uas_id, None) is not None:
+                deleted.append(uas_id)
+                logger.info("track on %s deleted after %.1f s of silence", uas_id, timeout)
+        for uas_id, heard in list(self._heard.items()):
+            if now_s - heard.last_heard_s > FORGET_AFTER_S and uas_id not in self._alerts:
+                del self._heard[uas_id]
+        return deleted, cleared
+
+    def _outputs(
+        self,
+        now_s: float,
+        results: list[DetectorResult],
+        changes: list[AlertChange],
+        deleted: list[str],
+    ) -> CycleOutput:
+        estimates = []
+        regions: list[UnsafeRegion] = []
+        for track in self._tracks.values():
+            est = track.estimate(now_s)
+            if not finite(est):
+                logger.warning("track %d on %s is not finite: skipped", track.track_id, est.uas_id)
+                continue
+            estimates.append(est)
+            regions.append(
+                make_region(
+                    est.uas_id,
+                    est.track_id,
+                    now_s,
+                    est.p_enu_m,
+                    est.cov_enu_m2,
+                    est.v_enu_m_s,
+                    self.config.region,
+                )
+            )
+        return CycleOutput(
+            detector_results=tuple(results),
+            alert_changes=tuple(changes),
+            tracks=tuple(estimates),
+            regions=tuple(regions),
+            deleted_tracks=tuple(deleted),
+        )
+
+    # --- introspection --------------------------------------------------------------------
+
+    @property
+    def alerted(self) -> frozenset[str]:
+        return frozenset(self._alerts)
+
+    @property
+    def tracks(self) -> dict[str, Track]:
+        return dict(self._tracks)

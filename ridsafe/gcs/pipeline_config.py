@@ -1,0 +1,389 @@
+"""Configuration of the GCS estimation pipeline (detection -> localisation -> IMM -> region).
+
+Frozen dataclasses loaded by :mod:`ridsafe.common.config`; each section validates itself in
+``__post_init__`` and names the offending field (``transition[1]: sums to 0.97, must be 1``).
+
+Where the paper (or the authors' code, REFERENCE.md) gives a value it is the default:
+the IMM's dt, mu0, transition matrix, Q and R (paper appendix table, DESIGN.md section 6),
+the per-pair NIS detector (Q 0.01, R 4, P0 10, threshold chi2_1 99 % = 6.63), the
+multilateration (>= 4 receivers, unknowns x, y, z, Pt, TRF, Pt bounded to +/-50 dBm), the
+CV -> CA lift variance (64 (m/s^2)^2), the 5 s forced alert, alpha = 0.05.
+
+Where it gives none, ours, each documented at its field:
+
+- ``rssi_sigma_db = 1.0``: the scenario's default shadowing (``radio.shadowing_sigma_db``).
+  The pipeline assumes it; a run whose radio differs must set both (the detectors' false-alarm
+  rate and the ellipsoids' honesty rest on it).
+- ``estimator = RSSI_IMM``: a Gaussian sum of IMMs (CV + CA) whose mode filters carry the
+  transmit power as a state and update on the raw RSSI of every receiver by iterated posterior
+  linearisation (``gaussian_sum.py``). Measured (``bench/bench_gcs.py --mc``, 30 seeds, 1 dB,
+  alert forced at 5 s, receivers airborne): containment at alpha = 0.05 of 0.91 / 0.97 / 0.99
+  and RMSE 50 / 23 / 14 m with 4 / 8 / 16 receivers, against 0.70 / 0.88 / 0.95 and
+  219 / 98 / 61 m for the paper's NLLS -> IMM with Jacobian fix covariances (0.51 / 0.69 / 0.87,
+  362 / 140 / 70 m with the paper's fixed R). ``NLLS_IMM`` is the paper's pipeline, selectable.
+- detection: tests across receivers and time with a false-alarm probability of 1e-6 per
+  transmission and test, the multilateration check as an exact score test (``detection.py``).
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+from ridsafe.common.errors import FieldValueError
+from ridsafe.common.messages import RidsafeDetector
+
+__all__ = [
+    "DetectionConfig",
+    "Estimator",
+    "ForcedAlertConfig",
+    "ImmConfig",
+    "MultilaterationConfig",
+    "PipelineConfig",
+    "RegionConfig",
+    "RssiFilterConfig",
+    "TrackConfig",
+]
+
+_SUM_TOL = 1e-6
+
+
+def _positive(name: str, value: float) -> None:
+    if not value > 0.0:
+        raise FieldValueError(name, f"expected > 0, got {value}")
+
+
+def _non_negative(name: str, value: float) -> None:
+    if not value >= 0.0:
+        raise FieldValueError(name, f"expected >= 0, got {value}")
+
+
+def _probability_vector(name: str, values: tuple[float, ...]) -> None:
+    for i, p in enumerate(values):
+        if not 0.0 <= p <= 1.0:
+            raise FieldValueError(f"{name}[{i}]", f"expected a probability in [0, 1], got {p}")
+    total = math.fsum(values)
+    if abs(total - 1.0) > _SUM_TOL:
+        raise FieldValueError(name, f"sums to {total:.6g}, must be 1")
+
+
+class Estimator(enum.Enum):
+    """Which localisation feeds the IMM."""
+
+    RSSI_IMM = "rssi_imm"  # ours: Gaussian sum of IMMs updated on raw RSSI, Pt as a state
+    NLLS_IMM = "nlls_imm"  # the paper's: NLLS fix per transmission -> linear IMM update
+
+
+@dataclass(frozen=True)
+class DetectionConfig:
+    """Spoofing detectors (``detection.py``)."""
+
+    #: First-metre loss the detectors use (the reference detectors' rounded 40.04 dB).
+    loss_at_1m_db: float = 40.04
+    #: Ours: std of the claimed and reported receiver positions (quantisation, telemetry lag),
+    #: turned into dB at each distance: sigma_i^2 = sigma^2 + (20/ln10 * this / d_i)^2.
+    #: Keeps close-range receptions from raising false alerts. The paper: 0.
+    position_sigma_m: float = 2.0
+    #: A transmission needs this many receivers to be tested.
+    min_receivers: int = 3
+    # --- the paper's detector: one scalar KF per (receiver, claimed transmitter) (REFERENCE.md)
+    nis_q_db2: float = 0.01
+    nis_r_db2: float = 4.0
+    nis_p0_db2: float = 10.0
+    nis_threshold: float = 6.63  # chi2_1 at 99 %
+    # --- ours: tests across receivers and time
+    #: Sliding window of the windowed tests (NIS_WINDOW, MLAT), seconds.
+    window_s: float = 10.0
+    #: False-alarm probability per transmission of POWER_SPREAD, NIS_WINDOW and MLAT; their
+    #: statistics are reported as surprisal -log10(p-value), threshold -log10(this).
+    p_false_alarm: float = 1e-6
+    #: CUSUM on the probit of each transmission's MLAT p-value: g = max(0, g + z - drift).
+    cusum_drift: float = 0.5
+    cusum_threshold: float = 12.0  # ARL0 ~ 1e6 transmissions (Siegmund's approximation)
+    #: Detectors whose decision raises an alert; the others are computed and reported only.
+    alerting: tuple[RidsafeDetector, ...] = (
+        RidsafeDetector.MLAT,
+        RidsafeDetector.NIS_WINDOW,
+        RidsafeDetector.CUSUM,
+    )
+
+    def __post_init__(self) -> None:
+        _non_negative("loss_at_1m_db", self.loss_at_1m_db)
+        _non_negative("position_sigma_m", self.position_sigma_m)
+        if self.min_receivers < 2:
+            raise FieldValueError("min_receivers", f"expected >= 2, got {self.min_receivers}")
+        for name in ("nis_q_db2", "nis_r_db2", "nis_p0_db2", "nis_threshold", "window_s"):
+            _positive(name, getattr(self, name))
+        if not 0.0 < self.p_false_alarm < 0.5:
+            raise FieldValueError(
+                "p_false_alarm", f"expected 0 < p < 0.5, got {self.p_false_alarm}"
+            )
+        _non_negative("cusum_drift", self.cusum_drift)
+        _positive("cusum_threshold", self.cusum_threshold)
+        for i, det in enumerate(self.alerting):
+            if det is RidsafeDetector.FORCED:
+                raise FieldValueError(f"alerting[{i}]", "FORCED is set in forced_alert")
+
+
+@dataclass(frozen=True)
+class MultilaterationConfig:
+    """NLLS fixes over (x, y, z, Pt) (paper eq. (9)) or (x, y, z) at a tracked Pt."""
+
+    min_receivers: int = 4
+    #: 'trf' as the paper (scipy least_squares, bounded Pt); 'lm' scipy's MINPACK: the same
+    #: minimum, about four times faster (``multilateration.py``).
+    method: Literal["trf", "lm"] = "trf"
+    max_nfev: int = 50
+    tx_power_bounds_dbm: tuple[float, float] = (-50.0, 50.0)
+    #: Fix covariance = s^2 (J^T J)^-1 with s = rssi_sigma_db ('rssi_sigma') or the residual
+    #: standard error ('residuals', needs more receivers than unknowns), times this inflation.
+    covariance_scale: Literal["rssi_sigma", "residuals"] = "rssi_sigma"
+    covariance_inflation: float = 1.0
+    #: Rejections: condition number of J^T J (columns scaled), largest position std, range of
+    #: the solution from the receivers' centroid.
+    max_condition: float = 1e10
+    max_position_std_m: float = 1000.0
+    max_range_m: float = 5000.0
+    #: Solve position only at the tracked transmit power once its std is below this (dB);
+    #: its uncertainty is propagated into the fix covariance. 0 disables.
+    position_only_below_power_std_db: float = 1.0
+    #: The tracked transmit power (fed by joint fixes) is a random walk of this variance/s.
+    tx_power_q_db2_s: float = 1e-4
+
+    def __post_init__(self) -> None:
+        _non_negative("tx_power_q_db2_s", self.tx_power_q_db2_s)
+        if self.min_receivers < 4:
+            raise FieldValueError("min_receivers", f"expected >= 4, got {self.min_receivers}")
+        if self.max_nfev < 1:
+            raise FieldValueError("max_nfev", f"expected >= 1, got {self.max_nfev}")
+        low, high = self.tx_power_bounds_dbm
+        if not low < high:
+            raise FieldValueError("tx_power_bounds_dbm", f"expected low < high, got {low}, {high}")
+        for name in ("covariance_inflation", "max_condition", "max_position_std_m", "max_range_m"):
+            _positive(name, getattr(self, name))
+        _non_negative("position_only_below_power_std_db", self.position_only_below_power_std_db)
+
+
+Matrix2 = tuple[tuple[float, float], tuple[float, float]]
+
+
+@dataclass(frozen=True)
+class ImmConfig:
+    """The paper's IMM (appendix table): modes (CV, CA), ``transition[i][j] = P(mode j at k |
+    mode i at k-1)`` per ``dt_s``; Q per ``dt_s``, scaled by the real interval; R per mode
+    when ``measurement_covariance = 'paper'``, else each fix's own covariance."""
+
+    dt_s: float = 0.25
+    mu0: tuple[float, float] = (0.45, 0.55)
+    transition: Matrix2 = ((0.98, 0.02), (0.16, 0.84))
+    q_cv_diag: tuple[float, ...] = (2.0, 2.0, 2.0, 120.0, 120.0, 120.0)
+    q_ca_diag: tuple[float, ...] = (4.0, 4.0, 4.0, 50.0, 50.0, 50.0, 20.0, 20.0, 20.0)
+    r_cv_diag: tuple[float, float, float] = (400.0, 400.0, 400.0)
+    r_ca_diag: tuple[float, float, float] = (50.0, 50.0, 50.0)
+    #: 'fix': R = the multilateration's Jacobian covariance (ours); 'paper': R_CV / R_CA.
+    measurement_covariance: Literal["fix", "paper"] = "fix"
+    #: Variance given to the acceleration when a CV estimate is lifted into CA (authors: 64).
+    lift_accel_var_m2_s4: float = 64.0
+    #: NIS gate on fixes (chi2_3 at 99 %: 11.34, the authors'); 0 disables.
+    gate_chi2: float = 11.34
+
+    def __post_init__(self) -> None:
+        _positive("dt_s", self.dt_s)
+        _probability_vector("mu0", self.mu0)
+        for i, row in enumerate(self.transition):
+            _probability_vector(f"transition[{i}]", row)
+        _diag("q_cv_diag", self.q_cv_diag, 6)
+        _diag("q_ca_diag", self.q_ca_diag, 9)
+        _diag("r_cv_diag", self.r_cv_diag, 3, strict=True)
+        _diag("r_ca_diag", self.r_ca_diag, 3, strict=True)
+        _positive("lift_accel_var_m2_s4", self.lift_accel_var_m2_s4)
+        _non_negative("gate_chi2", self.gate_chi2)
+
+
+def _diag(name: str, values: tuple[float, ...], size: int, strict: bool = False) -> None:
+    """A covariance given by its diagonal: PSD (or PD when ``strict``) and of ``size``."""
+    if len(values) != size:
+        raise FieldValueError(name, f"expected {size} values, got {len(values)}")
+    for i, v in enumerate(values):
+        if v < 0.0 or (strict and v == 0.0):
+            bound = "> 0" if strict else ">= 0"
+            raise FieldValueError(f"{name}[{i}]", f"covariance diagonal must be {bound}, got {v}")
+
+
+@dataclass(frozen=True)
+class RssiFilterConfig:
+    """Ours (``Estimator.RSSI_IMM``): a Gaussian sum of IMMs (CV + CA, the paper's dt, mu0 and
+    transition matrix from :class:`ImmConfig`) whose mode filters carry the transmit power as
+    a state and update on every receiver's raw RSSI by iterated posterior linearisation.
+
+    Kinematics: white acceleration (CV) and white jerk (CA). CV is the level-flight
+    hypothesis: its vertical noise is ``vertical_noise_ratio`` of the horizontal, so altitude
+    is a random walk of ``z_diffusion_m2_s`` and a vertical velocity cannot absorb the slow,
+    nonlinear altitude corrections (with a free vertical velocity the altitude drifted by tens
+    of metres and containment fell to 0.85 with 8 receivers in our Monte-Carlo). CA is the
+    manoeuvre hypothesis in 3D (``ca_vertical_noise_ratio``): a spoofer climbing at 1 m/s keeps
+    containment 0.96 with 8 receivers (0.65 when CA also held level flight); more vertical
+    freedom lets spurious vertical velocity leak into CV through the mixing (0.3: level flight
+    0.98 / climbing 0.96; 1.0: 0.97 / 0.97; 0.03: 0.98 / 0.92; 20 seeds).
+    """
+
+    q_cv_accel_m2_s3: float = 0.05
+    q_ca_jerk_m2_s5: float = 0.05
+    vertical_noise_ratio: float = 1e-3
+    ca_vertical_noise_ratio: float = 0.3
+    z_diffusion_m2_s: float = 0.5
+    #: The transmit power: a random walk of this variance per second.
+    q_tx_power_db2_s: float = 1e-4
+    #: Horizontal acceleration variance of a CV estimate lifted into CA (vertical: times
+    #: ``lift_vertical_ratio``).
+    lift_accel_var_m2_s4: float = 1.0
+    lift_vertical_ratio: float = 0.01
+    max_iterations: int = 5
+    #: Iterations stop when no position moves more than this.
+    step_tol_m: float = 0.5
+    #: A reception whose innovation exceeds this many standard deviations is dropped (unless
+    #: more than a quarter of them would be: then the estimate is the suspect).
+    reception_gate_sigma: float = 5.0
+    #: Std of the receivers' reported positions, folded into each reception's variance.
+    rx_position_sigma_m: float = 1.0
+    #: The Gaussian sum (``gaussian_sum.py``): initial altitude hypotheses (moment-matched
+    #: thirds of the 0-120 m band) and their std; one value gives a single IMM started with
+    #: ``tracks.altitude_prior_std_m``.
+    altitude_hypotheses_m: tuple[float, ...] = (20.0, 60.0, 100.0)
+    hypothesis_std_m: float = 15.0
+    #: Hypotheses lighter than this are dropped; a respawned altitude starts at the other.
+    prune_weight: float = 1e-4
+    respawn_weight: float = 1e-3
+    #: Hypotheses closer than this (Mahalanobis distance of positions) merge.
+    merge_distance: float = 0.5
+    #: Split a hypothesis before an update whose curvature over it exceeds this (dB).
+    split_nonlinearity_db: float = 0.5
+    max_hypotheses: int = 6
+
+    def __post_init__(self) -> None:
+        for name in ("q_cv_accel_m2_s3", "q_ca_jerk_m2_s5", "lift_accel_var_m2_s4"):
+            _positive(name, getattr(self, name))
+        for name in (
+            "vertical_noise_ratio",
+            "ca_vertical_noise_ratio",
+            "lift_vertical_ratio",
+            "z_diffusion_m2_s",
+            "q_tx_power_db2_s",
+        ):
+            _non_negative(name, getattr(self, name))
+        if self.max_iterations < 1:
+            raise FieldValueError("max_iterations", f"expected >= 1, got {self.max_iterations}")
+        _positive("step_tol_m", self.step_tol_m)
+        _positive("reception_gate_sigma", self.reception_gate_sigma)
+        _non_negative("rx_position_sigma_m", self.rx_position_sigma_m)
+        self._check_sum()
+
+    def _check_sum(self) -> None:
+        k = len(self.altitude_hypotheses_m)
+        if k == 0:
+            raise FieldValueError("altitude_hypotheses_m", "expected at least one altitude")
+        _positive("hypothesis_std_m", self.hypothesis_std_m)
+        if not 0.0 <= self.prune_weight < 0.5:
+            raise FieldValueError("prune_weight", f"expected 0 <= w < 0.5, got {self.prune_weight}")
+        if not (
+            self.prune_weight < self.respawn_weight
+            and self.respawn_weight * self.max_hypotheses < 1.0
+        ):
+            raise FieldValueError(
+                "respawn_weight",
+                f"expected prune_weight < w < 1/max_hypotheses, got {self.respawn_weight}",
+            )
+        _non_negative("merge_distance", self.merge_distance)
+        _non_negative("split_nonlinearity_db", self.split_nonlinearity_db)
+        if self.max_hypotheses < k:
+            raise FieldValueError(
+                "max_hypotheses",
+                f"expected >= {k} (the altitude hypotheses), got {self.max_hypotheses}",
+            )
+
+
+@dataclass(frozen=True)
+class TrackConfig:
+    """Track initiation, coasting and deletion (``tracks.py``); initial uncertainties (ours)."""
+
+    #: On alert the track starts from the transmitter's receptions of the last this many
+    #: seconds (kept for the detectors anyway), not from the next transmission only.
+    backfill_s: float = 10.0
+    #: Delete the track (and clear the alert) when the transmitter is silent this long.
+    silence_timeout_s: float = 10.0
+    #: RSSI_IMM: start the track only once the grid posterior's horizontal std is below this
+    #: (m); 0 starts at once. Receivers clustered at depots can leave the spoofer anywhere
+    #: along a curve; a region covering the whole area helps no planner.
+    max_init_std_m: float = 150.0
+    #: A single-hypothesis RSSI_IMM's altitude std: U(0, 120 m), the small-UAS legal band,
+    #: moment-matched (120 / sqrt(12)).
+    altitude_prior_std_m: float = 34.6
+    init_speed_std_m_s: float = 6.0
+    #: Level-flight prior (see ``RssiFilterConfig``).
+    init_vertical_speed_std_m_s: float = 0.1
+    init_accel_std_m_s2: float = 1.0
+    init_vertical_accel_std_m_s2: float = 0.01
+
+    def __post_init__(self) -> None:
+        _non_negative("backfill_s", self.backfill_s)
+        _non_negative("max_init_std_m", self.max_init_std_m)
+        for name in (
+            "silence_timeout_s",
+            "altitude_prior_std_m",
+            "init_speed_std_m_s",
+            "init_vertical_speed_std_m_s",
+            "init_accel_std_m_s2",
+            "init_vertical_accel_std_m_s2",
+        ):
+            _positive(name, getattr(self, name))
+
+
+@dataclass(frozen=True)
+class RegionConfig:
+    """Chance-constrained unsafe region (paper eq. (10)-(11))."""
+
+    alpha: float = 0.05
+    #: A region may be used until this long after the estimate it comes from.
+    validity_s: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.alpha < 1.0:
+            raise FieldValueError("alpha", f"expected 0 < alpha < 1, got {self.alpha}")
+        _positive("validity_s", self.validity_s)
+
+
+@dataclass(frozen=True)
+class ForcedAlertConfig:
+    """The paper's experiments force the alert for the spoofer's serial at 5 s."""
+
+    enabled: bool = False
+    uas_id: str = ""
+    time_s: float = 5.0
+    #: With a forced alert, may the real detectors still raise alerts (on any uas_id)?
+    detectors_also_alert: bool = False
+
+    def __post_init__(self) -> None:
+        if self.enabled and not self.uas_id:
+            raise FieldValueError("uas_id", "a forced alert needs the uas_id to alert on")
+        _non_negative("time_s", self.time_s)
+
+
+@dataclass(frozen=True)
+class PipelineConfig:
+    """Everything the estimation pipeline needs (nested sections above)."""
+
+    #: RSSI noise the pipeline assumes (dB), matching the scenario's default shadowing.
+    rssi_sigma_db: float = 1.0
+    estimator: Estimator = Estimator.RSSI_IMM
+    detection: DetectionConfig = field(default_factory=DetectionConfig)
+    multilateration: MultilaterationConfig = field(default_factory=MultilaterationConfig)
+    imm: ImmConfig = field(default_factory=ImmConfig)
+    rssi_filter: RssiFilterConfig = field(default_factory=RssiFilterConfig)
+    tracks: TrackConfig = field(default_factory=TrackConfig)
+    region: RegionConfig = field(default_factory=RegionConfig)
+    forced_alert: ForcedAlertConfig = field(default_factory=ForcedAlertConfig)
+
+    def __post_init__(self) -> None:
+        _positive("rssi_sigma_db", self.rssi_sigma_db)

@@ -1,0 +1,103 @@
+r"""The chance-constrained unsafe region around a spoofer estimate (paper sec. 5.1).
+
+Given the position estimate x^ and covariance P (3 x 3, ENU) and a risk level alpha, the
+unsafe region is the ellipsoid (paper eq. (10), its complement being the safe set)::
+
+    (x - x^)^T P^-1 (x - x^) <= F^-1_{chi2_3}(1 - alpha)          (= 7.815 at alpha = 0.05)
+
+If x ~ N(x^, P), the left side is chi2_3, so the region holds the spoofer with probability
+1 - alpha (paper eq. (11)) - the containment a consistent estimator must show.
+
+Geometry, for logging and Foxglove: with P = V diag(lambda) V^T (lambda descending, V a
+rotation, det V = +1), the semi-axes are sqrt(threshold * lambda_k) along the columns of V.
+The largest is DESIGN.md's "ellipsoid radius".
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.special import chdtri
+
+from ridsafe.gcs.pipeline_api import UnsafeRegion, readonly
+from ridsafe.gcs.pipeline_config import RegionConfig
+
+FloatArray = NDArray[np.float64]
+
+__all__ = [
+    "chi2_threshold",
+    "contains",
+    "ellipsoid_axes",
+    "mahalanobis2",
+    "make_region",
+    "positive_definite",
+]
+
+#: Smallest variance (m^2) a region's covariance may have along any axis.
+MIN_VARIANCE_M2 = 1e-6
+
+
+def chi2_threshold(alpha: float, dof: int = 3) -> float:
+    """F^-1_{chi2_dof}(1 - alpha): the inverse survival function at alpha."""
+    if not 0.0 < alpha < 1.0:
+        raise ValueError(f"alpha must be in (0, 1), got {alpha}")
+    return float(chdtri(dof, alpha))
+
+
+def positive_definite(cov: FloatArray, floor: float = MIN_VARIANCE_M2) -> FloatArray:
+    """Symmetrised ``cov`` with eigenvalues raised to at least ``floor``."""
+    sym = 0.5 * (cov + cov.T)
+    lam, V = np.linalg.eigh(sym)
+    if lam[0] >= floor:
+        return sym
+    out: FloatArray = (V * np.maximum(lam, floor)) @ V.T
+    return 0.5 * (out + out.T)
+
+
+def ellipsoid_axes(cov: FloatArray, threshold: float) -> tuple[FloatArray, FloatArray]:
+    """(semi_axes_m (3,) largest first, axes (3, 3) unit columns forming a rotation)."""
+    lam, V = np.linalg.eigh(0.5 * (cov + cov.T))
+    order = np.argsort(lam)[::-1]
+    lam, V = np.maximum(lam[order], 0.0), V[:, order]
+    if np.linalg.det(V) < 0.0:
+        V[:, 2] = -V[:, 2]
+    return np.sqrt(threshold * lam), V
+
+
+def mahalanobis2(point: FloatArray, center: FloatArray, cov: FloatArray) -> float:
+    """(x - c)^T P^-1 (x - c)."""
+    d = np.asarray(point, dtype=np.float64) - center
+    return float(d @ np.linalg.solve(cov, d))
+
+
+def contains(region: UnsafeRegion, point: FloatArray) -> bool:
+    """Is ``point`` inside the region's ellipsoid?"""
+    return mahalanobis2(point, region.center_enu_m, region.cov_enu_m2) <= region.chi2_threshold
+
+
+def make_region(
+    uas_id: str,
+    track_id: int,
+    t_s: float,
+    center_enu_m: FloatArray,
+    cov_enu_m2: FloatArray,
+    v_enu_m_s: FloatArray,
+    cfg: RegionConfig,
+) -> UnsafeRegion:
+    """The region of an estimate at ``t_s``, valid for ``cfg.validity_s``."""
+    cov = positive_definite(cov_enu_m2)
+    threshold = chi2_threshold(cfg.alpha)
+    semi, axes = ellipsoid_axes(cov, threshold)
+    return UnsafeRegion(
+        uas_id=uas_id,
+        track_id=track_id,
+        t_s=t_s,
+        center_enu_m=readonly(center_enu_m),
+        cov_enu_m2=readonly(cov),
+        v_enu_m_s=readonly(v_enu_m_s),
+        chi2_threshold=threshold,
+        alpha=cfg.alpha,
+        valid_until_s=t_s + cfg.validity_s,
+        semi_axes_m=readonly(semi),
+        axes_enu=readonly(axes),
+    )

@@ -1,0 +1,123 @@
+"""The Gaussian sum of RSSI IMMs and the grid posterior that starts it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ridsafe.gcs import imm
+from ridsafe.gcs.gaussian_sum import GaussianSumLocaliser, _split_along, moment_match
+from ridsafe.gcs.imm import Gaussian, ImmState
+from ridsafe.gcs.initiation import GridSeed, grid_posterior, init_windows, spread_m
+from ridsafe.gcs.pipeline_api import Transmission, readonly
+from ridsafe.gcs.pipeline_config import PipelineConfig
+
+LOSS = 40.0442
+
+
+def _tx(
+    t: float, p: np.ndarray, rx: np.ndarray, rng: np.random.Generator, sigma: float = 1.0
+) -> Transmission:
+    d = np.linalg.norm(rx - p, axis=1)
+    rssi = 20.0 - 20.0 * np.log10(d) - LOSS + rng.normal(0, sigma, rx.shape[0])
+    k = rx.shape[0]
+    return Transmission(
+        "S",
+        t,
+        readonly(p),
+        None,
+        np.arange(1, k + 1),
+        readonly(rx),
+        readonly(np.full(k, t)),
+        readonly(rssi),
+    )
+
+
+def test_huber_split_preserves_the_first_two_moments() -> None:
+    rng = np.random.default_rng(0)
+    A = rng.normal(size=(10, 10))
+    P = A @ A.T + np.eye(10)
+    x = rng.normal(size=10)
+    state = ImmState((Gaussian(x[None], P[None]),), np.array([[1.0]]), 0.0)
+    e = np.array([0.2, -0.4, 0.9])
+    e /= np.linalg.norm(e)
+    weights = np.array([0.2252246249136750, 0.5495507501726501, 0.2252246249136750])
+    parts = [_split_along(state, e, a).modes[0] for a in (-1.0575154134058, 0.0, 1.0575154134058)]
+    batch = Gaussian(np.concatenate([g.x for g in parts]), np.concatenate([g.P for g in parts]))
+    matched = moment_match(weights, batch)
+    np.testing.assert_allclose(matched.x[0], x, atol=1e-9)
+    np.testing.assert_allclose(matched.P[0], P, rtol=1e-6, atol=1e-6)
+    var_e = e @ P[:3, :3] @ e  # each part is narrower along e
+    assert e @ parts[0].P[0, :3, :3] @ e == pytest.approx(
+        (1 - 2 * weights[0] * 1.0575154134058**2) * var_e
+    )
+
+
+def test_grid_posterior_finds_the_transmitter() -> None:
+    rng = np.random.default_rng(1)
+    rx = np.column_stack((rng.uniform(-500, 500, (12, 2)), rng.uniform(30, 100, 12)))
+    p = np.array([120.0, -200.0, 60.0])
+    txs = [_tx(t, p, rx, rng, 0.5) for t in (0.0, 1.0, 2.0)]
+    seeds = grid_posterior(txs, (20.0, 60.0, 100.0), 1.0)
+    assert sum(s.weight for s in seeds) == pytest.approx(1.0)
+    best = max(seeds, key=lambda s: s.weight)
+    assert np.linalg.norm(best.p_xy_m - p[:2]) < 40.0
+    assert best.tx_power_dbm == pytest.approx(20.0, abs=1.5)
+    assert spread_m(seeds) < 60.0
+
+
+def test_clustered_receivers_leave_a_wide_grid_posterior() -> None:
+    rng = np.random.default_rng(2)
+    sites = np.array([[-350.0, -350.0, 0.0], [350.0, -350.0, 0.0], [0.0, 380.0, 0.0]])
+    rx = np.repeat(sites, 3, axis=0) + np.r_[rng.uniform(-3, 3, (9, 2)).T, [np.zeros(9)]].T
+    txs = [_tx(t, np.array([-450.0, 120.0, 60.0]), rx, rng) for t in (0.0, 1.0)]
+    seeds = grid_posterior(txs, (20.0, 60.0, 100.0), 1.0)
+    assert spread_m(seeds) > 150.0  # several modes along a ridge, none dominant
+    assert len(seeds) > 2 and max(s.weight for s in seeds) < 0.5
+
+
+def test_init_windows_span_and_skip_what_was_tried() -> None:
+    rng = np.random.default_rng(3)
+    rx = rng.uniform(-500, 500, (6, 3))
+    txs = [_tx(t, np.zeros(3), rx, rng) for t in (0.0, 1.0, 2.0, 3.0, 4.0)]
+    windows = init_windows(txs, 4)
+    assert [len(w) for w in windows] == [1, 2, 3, 3, 3]
+    assert [w[-1].t_s for w in init_windows(txs, 4, after_s=2.5)] == [3.0, 4.0]
+
+
+def _localiser(seeds: list[GridSeed]) -> GaussianSumLocaliser:
+    return GaussianSumLocaliser(PipelineConfig(), seeds, 0.0)
+
+
+def _seed(z: float, w: float, xy: tuple[float, float] = (0.0, 0.0)) -> GridSeed:
+    return GridSeed(w, z, np.array(xy), np.eye(2) * 400.0, 20.0, 1.0)
+
+
+def test_merge_and_respawn_keep_the_altitude_layers_covered() -> None:
+    loc = _localiser([_seed(60.0, 0.5), _seed(60.5, 0.5)])
+    fused = loc._merge_close(imm.merge(loc.state, loc.model))
+    assert loc.size == 1 and loc.weights[0] == pytest.approx(1.0)
+    loc._respawn(fused)
+    altitudes = sorted(imm.merge(loc.state, loc.model).x[:, 2])
+    assert altitudes == pytest.approx([20.0, 60.25, 100.0], abs=0.5)
+    respawned = PipelineConfig().rssi_filter.respawn_weight
+    assert sorted(loc.weights)[:2] == pytest.approx([respawned, respawned], rel=0.01)
+
+
+def test_the_sum_tracks_a_transmitter_and_reports_the_mixture() -> None:
+    rng = np.random.default_rng(4)
+    rx = np.column_stack((rng.uniform(-500, 500, (12, 2)), rng.uniform(30, 100, 12)))
+    p0, v = np.array([-300.0, 0.0, 60.0]), np.array([7.0, 0.0, 0.0])
+    txs = [_tx(float(t), p0 + v * t, rx, rng) for t in range(40)]
+    loc = _localiser(grid_posterior(txs[:3], (20.0, 60.0, 100.0), 1.0))
+    loc.state = ImmState(loc.state.modes, loc.state.mu, 2.0)
+    for tx in txs[3:]:
+        assert loc.update(tx)
+        assert loc.size <= PipelineConfig().rssi_filter.max_hypotheses
+    fused, mu = loc.predicted(39.0)
+    e = p0 + v * 39.0 - fused.x[0, :3]
+    assert e @ np.linalg.solve(fused.P[0, :3, :3], e) < 16.3  # chi2_3 at 99.9 %
+    assert np.linalg.norm(e[:2]) < 30.0
+    assert np.linalg.norm(fused.x[0, 3:6] - v) < 2.0
+    assert mu.sum() == pytest.approx(1.0)
+    assert loc.weights.sum() == pytest.approx(1.0)
