@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 from ridsafe.common.clock import MonotonicClock
 from ridsafe.common.errors import UdpError
-from ridsafe.common.runner import UdpRunner
+from ridsafe.common.runner import RunnerClock, UdpRunner
 from ridsafe.common.udp import UdpEndpoint
 from ridsafe.companion.companion import AUTOPILOT, GCS, Companion
 
@@ -127,13 +127,16 @@ class CompanionApp:
         connections: Mapping[int, Connections],
         speed: float = 1.0,
         tick_s: float = 0.01,
+        clock: RunnerClock | None = None,
     ) -> None:
+        """``clock``: the runner's time (default: ``speed`` times the time since now)."""
         missing = sorted({c.spec.sysid for c in companions} - set(connections))
         if missing:
             raise ValueError(f"no connections for companions {missing}")
         self.fleet = CompanionFleet(companions)
         self.endpoints = open_endpoints(connections)
-        self.runner = UdpRunner(self.fleet, self.endpoints, MonotonicClock(speed), tick_s)
+        runner_clock = clock if clock is not None else MonotonicClock(speed)
+        self.runner = UdpRunner(self.fleet, self.endpoints, runner_clock, tick_s)
 
     def run(
         self, until_s: float | None = None, on_tick: Callable[[float], None] | None = None

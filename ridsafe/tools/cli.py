@@ -6,17 +6,29 @@ sets ``func`` (``Callable[[argparse.Namespace], int]``) as the parser default.
 
 from __future__ import annotations
 
-import argparse
-import importlib
-import logging
-import sys
-from collections.abc import Sequence
+import os
+
+# Every ridsafe process is one single-threaded loop (a live run is several processes, a sweep
+# a pool of them): BLAS worker threads only contend for the cores and stall the GCS cycle.
+# Set before numpy is first imported (the subcommand modules import it).
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import importlib  # noqa: E402
+import logging  # noqa: E402
+import sys  # noqa: E402
+from collections.abc import Sequence  # noqa: E402
 
 # Subcommand modules, in the order ``ridsafe --help`` lists them.
 _SUBCOMMAND_MODULES: tuple[str, ...] = (
+    "ridsafe.tools.run_cmd",
     "ridsafe.tools.sim_cmd",
-    "ridsafe.tools.demo_cmd",
+    "ridsafe.tools.gcs_cmd",
+    "ridsafe.tools.companion_cmd",
+    "ridsafe.tools.metrics_cmd",
     "ridsafe.tools.odid_cmd",
+    "ridsafe.tools.demo_cmd",
 )
 
 

@@ -6,8 +6,8 @@ sets GUIDED, arms, takes off and flies to its goal, broadcasting its Remote ID t
 transponder and reporting what it hears to the GCS. ``--vehicle 1-4`` (or ``1,3``) runs
 several in one process. Events and counters are printed; Ctrl-C stops.
 
-The scenario file's ``companion:`` section (``CompanionConfig``) and ``planner:`` section
-(handed to the planner factory) are optional; ``--set companion.on_arrival=land`` and
+The scenario file's ``companion:`` (``CompanionConfig``) and ``planner:`` (``PlannerConfig``)
+sections are optional; ``--set companion.on_arrival=land`` and
 ``--set companion.cruise_speed_m_s=6`` override single values.
 """
 
@@ -15,16 +15,13 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from ridsafe.common import codec, topics
-from ridsafe.common.config import from_mapping, parse_override, parse_yaml, with_overrides
-from ridsafe.common.errors import ConfigError, RidsafeError
-from ridsafe.common.logsink import Record
+from ridsafe.common.errors import RidsafeError
+from ridsafe.common.logsink import LogSink, Record
 from ridsafe.companion.app import (
     DEFAULT_GCS_CONNECTION,
     CompanionApp,
@@ -32,14 +29,13 @@ from ridsafe.companion.app import (
     default_autopilot_connection,
 )
 from ridsafe.companion.companion import Companion
-from ridsafe.companion.config import CompanionConfig, CompanionSpec
+from ridsafe.companion.config import CompanionSpec
 from ridsafe.companion.mission import Phase
 from ridsafe.companion.planners import PLANNERS, PlannerSettings, make_planner
-from ridsafe.tools.scenario import ScenarioFile, resolve_config_path
+from ridsafe.tools import runtime
+from ridsafe.tools.scenario import ScenarioFile
 
-__all__ = ["CompanionFile", "load_companion_file", "parse_vehicles", "register", "run"]
-
-_SECTIONS = ("companion", "planner")
+__all__ = ["build_companions", "parse_vehicles", "register", "run"]
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -49,7 +45,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("config", nargs="?", help="scenario YAML (default configs/default.yaml)")
+    runtime.add_scenario_arguments(parser)
+    runtime.add_process_arguments(parser)
     parser.add_argument(
         "--vehicle", required=True, help="benign aircraft to fly: 2, 1-4 or 1,3 (1-based)"
     )
@@ -59,64 +56,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--gcs", default=DEFAULT_GCS_CONNECTION, help="GCS connection string")
     parser.add_argument("--signing-key", type=Path, help="MAVLink 2 signing key for the GCS link")
     parser.add_argument(
-        "--planner", default="straight-line", choices=sorted(PLANNERS), help="planner name"
-    )
-    parser.add_argument("--speed", type=float, default=1.0, help="sim seconds per wall second")
-    parser.add_argument("--duration", type=float, help="stop after this many sim seconds")
-    parser.add_argument(
-        "--set",
-        dest="overrides",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="override a config value, e.g. --set companion.on_arrival=land",
+        "--planner", choices=sorted(PLANNERS), help="planner name (default: run.planner)"
     )
     parser.set_defaults(func=run)
-
-
-@dataclass(frozen=True)
-class CompanionFile:
-    """A scenario file with the companion's own sections."""
-
-    scenario_file: ScenarioFile
-    companion: CompanionConfig = field(default_factory=CompanionConfig)
-    planner_options: Mapping[str, object] = field(default_factory=dict)
-
-
-def load_companion_file(
-    path: str | Path | None = None, overrides: Mapping[str, object] | None = None
-) -> CompanionFile:
-    """Read a scenario YAML: ``companion:`` and ``planner:`` here, the rest as ScenarioFile."""
-    resolved = resolve_config_path(path)
-    source = str(resolved)
-    try:
-        text = resolved.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise ConfigError(source, "", f"cannot read configuration file: {err}") from err
-    data = parse_yaml(text, source)
-    if not isinstance(data, dict):
-        raise ConfigError(source, "", f"expected a mapping at the top, got {type(data).__name__}")
-    sections = {name: data.pop(name, None) or {} for name in _SECTIONS}
-    scenario_file = from_mapping(ScenarioFile, data, source)
-    companion = from_mapping(CompanionConfig, sections["companion"], f"{source}: companion")
-    planner = sections["planner"]
-    if not isinstance(planner, dict):
-        raise ConfigError(source, "planner", "expected a mapping")
-    loaded = CompanionFile(scenario_file, companion, planner)
-    return _apply_overrides(loaded, overrides or {})
-
-
-def _apply_overrides(loaded: CompanionFile, overrides: Mapping[str, object]) -> CompanionFile:
-    split: dict[str, dict[str, object]] = {"companion": {}, "planner": {}, "": {}}
-    for key, value in overrides.items():
-        head, _, rest = key.partition(".")
-        bucket = head if head in _SECTIONS and rest else ""
-        split[bucket][rest if bucket else key] = value
-    return CompanionFile(
-        with_overrides(loaded.scenario_file, split[""]) if split[""] else loaded.scenario_file,
-        with_overrides(loaded.companion, split["companion"]),
-        {**loaded.planner_options, **split["planner"]},
-    )
 
 
 def parse_vehicles(text: str, count: int) -> list[int]:
@@ -138,12 +80,14 @@ def parse_vehicles(text: str, count: int) -> list[int]:
 
 
 class ConsoleSink:
-    """Prints companion events and counters for people; drops the other records."""
+    """Prints companion events and counters for people and passes every record on."""
 
-    def __init__(self, stream: Any = None) -> None:
+    def __init__(self, inner: LogSink, stream: Any = None) -> None:
+        self.inner = inner
         self.stream = stream if stream is not None else sys.stdout
 
     def log(self, topic: str, t_s: float, record: Record) -> None:
+        self.inner.log(topic, t_s, record)
         if topic == topics.COMPANION_EVENTS:
             line = f"[{t_s:8.2f}] v{record['sysid']} {record['event']}: {record['detail']}"
         elif topic == topics.APP_COUNTERS:
@@ -155,13 +99,13 @@ class ConsoleSink:
 
 
 def build_companions(
-    loaded: CompanionFile,
+    loaded: ScenarioFile,
     vehicles: Sequence[int],
     planner: str,
-    sink: ConsoleSink,
+    sink: LogSink,
     signing: codec.SigningConfig | None,
 ) -> list[Companion]:
-    scenario, config = loaded.scenario_file.scenario, loaded.companion
+    scenario, config = loaded.scenario, loaded.companion
     companions = []
     for sysid in vehicles:
         spec = CompanionSpec.from_scenario(scenario, sysid, config.operator_id)
@@ -173,7 +117,7 @@ def build_companions(
             approach_radius_m=config.approach_radius_m,
             arrival_radius_m=config.arrival_radius_m,
             seed=scenario.seed,
-            options=loaded.planner_options,
+            config=loaded.planner,
         )
         companions.append(
             Companion(spec, config, make_planner(planner, settings), sink, signing=signing)
@@ -182,11 +126,11 @@ def build_companions(
 
 
 def _connections(
-    args: argparse.Namespace, loaded: CompanionFile, vehicles: Sequence[int]
+    args: argparse.Namespace, loaded: ScenarioFile, vehicles: Sequence[int]
 ) -> dict[int, Connections]:
     if args.autopilot is not None and len(vehicles) != 1:
         raise ValueError("--autopilot names one autopilot: use it with a single --vehicle")
-    ports = loaded.scenario_file.sim.ports
+    ports = loaded.sim.ports
     return {
         sysid: Connections(
             args.autopilot or default_autopilot_connection(sysid, ports.companion_base, ports.host),
@@ -196,40 +140,42 @@ def _connections(
     }
 
 
-def _signing(path: Path | None) -> codec.SigningConfig | None:
-    if path is None:
-        return None
-    key = codec.load_signing_key(path)
-    return codec.SigningConfig(key, codec.signing_timestamp_from_unix(time.time()))
-
-
 def run(args: argparse.Namespace) -> int:
     try:
-        overrides = dict(parse_override(text) for text in args.overrides)
-        loaded = load_companion_file(args.config, overrides)
-        vehicles = parse_vehicles(args.vehicle, len(loaded.scenario_file.scenario.aircraft))
-        if args.speed <= 0:
-            raise ValueError("--speed must be > 0")
+        runtime.check_speed(args)
+        loaded = runtime.load_scenario_args(args)
+        vehicles = parse_vehicles(args.vehicle, len(loaded.scenario.aircraft))
         connections = _connections(args, loaded, vehicles)
-        sink = ConsoleSink()
-        signing = _signing(args.signing_key)
-        companions = build_companions(loaded, vehicles, args.planner, sink, signing)
+        signing = runtime.signing_from_file(args.signing_key)
+        planner = args.planner or loaded.run.planner
     except (RidsafeError, ValueError, KeyError, OSError) as exc:
         print(f"ridsafe companion: {exc}", file=sys.stderr)
         return 2
+    sink = ConsoleSink(runtime.open_sink(args.log, loaded.scenario.origin))
     try:
-        app = CompanionApp(companions, connections, speed=args.speed)
-    except (RidsafeError, OSError) as exc:
-        print(f"ridsafe companion: cannot open the connections: {exc}", file=sys.stderr)
+        companions = build_companions(loaded, vehicles, planner, sink, signing)
+        app = CompanionApp(
+            companions,
+            connections,
+            tick_s=loaded.run.live_tick_s,
+            clock=runtime.make_clock(args),
+        )
+    except (RidsafeError, ValueError, KeyError, OSError) as exc:
+        runtime.close_sink(sink.inner)
+        print(f"ridsafe companion: {exc}", file=sys.stderr)
         return 1
     for sysid, conn in connections.items():
         print(f"companion {sysid}: autopilot {conn.autopilot}, gcs {conn.gcs}", flush=True)
+    runtime.wait_for_start(args)
+    restore = runtime.stop_on_sigterm(app.stop)
     try:
         app.run(until_s=args.duration)
     except KeyboardInterrupt:
         print("\nstopped", file=sys.stderr)
     finally:
+        restore()
         app.close()
+        runtime.close_sink(sink.inner)
     for companion in companions:
         print(f"companion {companion.spec.sysid}: ended in {companion.phase.name}")
     return 0 if all(c.phase is not Phase.FAILED for c in companions) else 1

@@ -2,11 +2,11 @@
 
 1 km x 1 km (ENU about the origin, x and y in [-500, 500] m); three depots; benign aircraft
 start at the depots in turn (aircraft k at depot k mod 3), each depot launching one aircraft
-every ``launch_interval_s`` so departing aircraft do not start inside each other's NMAC
-radius; each delivery site is drawn uniformly in the area between ``min_trip_m`` and
-``max_trip_m`` from its depot; cruise altitudes are drawn from ``cruise_alts_m``. One spoofer
-crosses the area on a straight line through the middle of the traffic at constant speed and
-cruise altitude, broadcasting a constant offset.
+every ``launch_interval_s`` from pads ``pad_spacing_m`` apart, so departing aircraft do not
+start inside each other's NMAC radius; each delivery site is drawn uniformly in the area
+between ``min_trip_m`` and ``max_trip_m`` from its depot; cruise altitudes are drawn from
+``cruise_alts_m``. One spoofer crosses the area on a straight line through the middle of the
+traffic at constant speed and cruise altitude, broadcasting a constant offset.
 
 Matched seeds: everything is drawn from ``rng.stream(seed, "scenario")`` with a fixed number
 of draws per aircraft, so the same seed gives the same depots, deliveries and spoofer for
@@ -45,7 +45,10 @@ class FamilyConfig:
         (0.0, 400.0, 0.0),
     )
     launch_interval_s: float = 5.0
-    depot_spacing_m: float = 12.0  # aircraft waiting at one depot stand this far apart
+    # Pads of one depot: the first at the depot, the next on rings around it (6 q pads on
+    # ring q, radius q * pad_spacing_m), so pads are >= pad_spacing_m apart: above the
+    # 50 m NMAC radius, aircraft climbing from neighbouring pads do not count as an NMAC.
+    pad_spacing_m: float = 55.0
     min_trip_m: float = 350.0
     max_trip_m: float = 650.0  # every delivery fits in a 120 s flight at 8 m/s
     cruise_alts_m: tuple[float, ...] = (50.0, 60.0, 70.0)
@@ -79,8 +82,7 @@ def _aircraft(k: int, draw: np.random.Generator, family: FamilyConfig) -> Aircra
     n_depots = len(family.depots_enu_m)
     depot = np.array(family.depots_enu_m[k % n_depots])
     slot = k // n_depots
-    # Waiting aircraft stand on a line east of the depot marker.
-    start = depot + np.array([slot * family.depot_spacing_m, 0.0, 0.0])
+    start = depot + _pad_offset(slot, family.pad_spacing_m)
     # A fixed number of draws per aircraft keeps seeds matched across densities.
     u = draw.random(65)
     goal = _delivery_site(u[:-1], depot, family)
@@ -92,6 +94,18 @@ def _aircraft(k: int, draw: np.random.Generator, family: FamilyConfig) -> Aircra
         cruise_alt_m=alt,
         departure_s=slot * family.launch_interval_s,
     )
+
+
+def _pad_offset(slot: int, spacing_m: float) -> np.ndarray:
+    """Offset of pad ``slot`` from its depot: 0 at the centre, then rings of 6 q pads."""
+    ring, index = 0, slot
+    while index > 0:
+        ring += 1
+        if index <= 6 * ring:
+            angle = 2 * math.pi * (index - 1) / (6 * ring)
+            return ring * spacing_m * np.array([math.cos(angle), math.sin(angle), 0.0])
+        index -= 6 * ring
+    return np.zeros(3)
 
 
 def _delivery_site(uniforms: np.ndarray, depot: np.ndarray, family: FamilyConfig) -> np.ndarray:

@@ -7,11 +7,12 @@ import dataclasses
 import logging
 import sys
 
-from ridsafe.common.config import parse_override
 from ridsafe.common.errors import RidsafeError
-from ridsafe.sim_backend.app import describe_ports, make_runner
+from ridsafe.common.runner import UdpRunner
+from ridsafe.sim_backend.app import describe_ports, open_endpoints
 from ridsafe.sim_backend.world import EndpointKind, SimBackend
-from ridsafe.tools.scenario import ScenarioFile, load_scenario_file, rescale_aircraft
+from ridsafe.tools import runtime
+from ridsafe.tools.scenario import ScenarioFile, with_aircraft
 
 logger = logging.getLogger(__name__)
 
@@ -23,67 +24,58 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         description="Run the sim backend: vehicle i streams MAVLink to 127.0.0.1:14550+10(i-1) "
         "and listens for its companion on 127.0.0.1:5760+10(i-1).",
     )
-    add_scenario_arguments(parser)
+    runtime.add_scenario_arguments(parser)
+    runtime.add_process_arguments(parser)
     parser.add_argument(
         "--vehicles", type=int, help="number of benign vehicles (rescales the scenario)"
     )
-    parser.add_argument("--speed", type=float, default=1.0, help="sim seconds per wall second")
-    parser.add_argument("--duration", type=float, help="stop after this many sim seconds")
     parser.add_argument("--no-spoofer", action="store_true", help="leave the spoofer out")
     parser.set_defaults(func=run)
 
 
-def add_scenario_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("config", nargs="?", help="scenario YAML (default configs/default.yaml)")
-    parser.add_argument(
-        "--set",
-        dest="overrides",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="override a config value, e.g. --set sim.controller.max_tilt_deg=25",
-    )
-
-
 def load_from_args(args: argparse.Namespace) -> ScenarioFile:
-    overrides = dict(parse_override(text) for text in args.overrides)
-    loaded = load_scenario_file(args.config, overrides)
-    scenario = loaded.scenario
-    if getattr(args, "vehicles", None) is not None:
-        scenario = rescale_aircraft(scenario, args.vehicles)
-    if getattr(args, "no_spoofer", False):
-        scenario = dataclasses.replace(scenario, spoofer=None)
-    return dataclasses.replace(loaded, scenario=scenario)
+    loaded = runtime.load_scenario_args(args)
+    if args.vehicles is not None:
+        loaded = with_aircraft(loaded, args.vehicles)
+    if args.no_spoofer:
+        loaded = dataclasses.replace(
+            loaded, scenario=dataclasses.replace(loaded.scenario, spoofer=None)
+        )
+    return loaded
 
 
 def run(args: argparse.Namespace) -> int:
     try:
+        runtime.check_speed(args)
         loaded = load_from_args(args)
     except (RidsafeError, ValueError, OSError) as exc:
         print(f"ridsafe sim: {exc}", file=sys.stderr)
         return 2
-    if args.speed <= 0:
-        print("ridsafe sim: --speed must be > 0", file=sys.stderr)
-        return 2
     kinds = [EndpointKind.COMPANION]
     if loaded.sim.ports.gcs_out_enabled:
         kinds.append(EndpointKind.GCS)
-    backend = SimBackend(loaded.scenario, loaded.sim, kinds)
+    sink = runtime.open_sink(args.log, loaded.scenario.origin)
+    backend = SimBackend(loaded.scenario, loaded.sim, kinds, sink=sink)
     try:
-        runner = make_runner(backend, loaded.sim.ports, speed=args.speed)
+        endpoints = open_endpoints(backend, loaded.sim.ports)
     except OSError as exc:
+        runtime.close_sink(sink)
         print(f"ridsafe sim: cannot open the ports: {exc}", file=sys.stderr)
         return 1
     for line in describe_ports(backend, loaded.sim.ports):
         print(line)
     print(f"running at {args.speed:g}x real time; Ctrl-C stops", flush=True)
-    progress = _Progress(backend)
+    runtime.wait_for_start(args)
+    runner = UdpRunner(backend, endpoints, runtime.make_clock(args), loaded.run.live_tick_s)
+    restore = runtime.stop_on_sigterm(runner.stop)
     try:
-        runner.run(until_s=args.duration, on_tick=progress)
+        runner.run(until_s=args.duration, on_tick=_Progress(backend))
     except KeyboardInterrupt:
         print("\nstopped", file=sys.stderr)
     finally:
+        restore()
         runner.close()
+        runtime.close_sink(sink)
     print(f"done at t = {backend.t_s:.1f} s; {runner.stats}")
     return 0
 

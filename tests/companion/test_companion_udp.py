@@ -27,6 +27,7 @@ from ridsafe.sim_backend.app import make_runner
 from ridsafe.sim_backend.config import SimConfig, SimPorts
 from ridsafe.sim_backend.world import EndpointKind, SimBackend
 from ridsafe.tools import companion_cmd
+from ridsafe.tools.scenario import load_scenario_file
 from tests.companion.test_companion_core import make_scenario
 
 SPEED = 5.0
@@ -170,22 +171,22 @@ companion:
   on_arrival: land
   cruise_speed_m_s: 6.0
 planner:
-  horizon_steps: 12
+  horizon_s: 8.0
 """
 
 
 def test_the_scenario_files_companion_and_planner_sections_are_read(tmp_path: Path) -> None:
     path = tmp_path / "s.yaml"
     path.write_text(SCENARIO_YAML, encoding="utf-8")
-    loaded = companion_cmd.load_companion_file(path, {"companion.cruise_speed_m_s": 5.0})
+    loaded = load_scenario_file(path, {"companion.cruise_speed_m_s": 5.0})
     assert loaded.companion.on_arrival is OnArrival.LAND
     assert loaded.companion.cruise_speed_m_s == 5.0
-    assert loaded.planner_options == {"horizon_steps": 12}
-    assert loaded.scenario_file.sim.ports.companion_base == 27760
+    assert loaded.planner.horizon_s == 8.0
+    assert loaded.sim.ports.companion_base == 27760
     bad = tmp_path / "bad.yaml"
     bad.write_text(SCENARIO_YAML.replace("cruise_speed_m_s: 6.0", "cruise_speed: 6.0"), "utf-8")
     with pytest.raises(ConfigError, match=r"companion.*cruise_speed"):
-        companion_cmd.load_companion_file(bad)
+        load_scenario_file(bad)
 
 
 def test_the_cli_refuses_one_autopilot_for_several_vehicles(

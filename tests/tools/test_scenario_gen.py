@@ -27,12 +27,22 @@ def test_geometry_depots_trips_departures_and_serials() -> None:
         assert len({a.serial for a in s.aircraft}) == 16
         for k, a in enumerate(s.aircraft):
             depot = np.array(FAMILY.depots_enu_m[k % 3])
-            assert np.hypot(*(np.array(a.start_enu_m) - depot)[:2]) <= 5 * FAMILY.depot_spacing_m
+            assert np.hypot(*(np.array(a.start_enu_m) - depot)[:2]) <= 2 * FAMILY.pad_spacing_m
             trip = math.dist(a.start_enu_m[:2], a.goal_enu_m[:2])
-            assert 250.0 <= trip <= FAMILY.max_trip_m + 5 * FAMILY.depot_spacing_m
+            assert 250.0 <= trip <= FAMILY.max_trip_m + 2 * FAMILY.pad_spacing_m
             assert all(abs(c) <= FAMILY.half_width_m for c in a.goal_enu_m[:2])
             assert a.departure_s == (k // 3) * FAMILY.launch_interval_s
             assert a.cruise_alt_m in FAMILY.cruise_alts_m
+
+
+def test_pads_of_a_depot_stand_further_apart_than_the_nmac_radius() -> None:
+    starts = np.array([a.start_enu_m for a in generate(BASE, 30, 0, FAMILY).aircraft])
+    for depot in range(3):
+        pads = starts[depot::3]
+        gaps = np.linalg.norm(pads[:, None, :] - pads[None, :, :], axis=-1)
+        assert (
+            gaps[~np.eye(len(pads), dtype=bool)].min() >= FAMILY.pad_spacing_m - 0.01
+        )  # mm rounding
 
 
 def test_spoofer_crosses_the_area_near_its_centre() -> None:
