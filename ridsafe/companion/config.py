@@ -102,7 +102,7 @@ class CompanionConfig:
     approach_radius_m: float = 15.0  # position-only target at the goal inside this
     arrival_radius_m: float = 10.0  # horizontal
     arrival_alt_tolerance_m: float = 5.0
-    on_arrival: OnArrival = OnArrival.HOVER
+    on_arrival: OnArrival = OnArrival.LAND  # a delivery lands, and leaves the airspace
     settled_speed_m_s: float = 0.5  # HOVER is DONE below this speed
     # -- loops ------------------------------------------------------------------------------
     replan_period_s: float = 0.5

@@ -89,6 +89,7 @@ def run(args: argparse.Namespace) -> int:
     print(
         f"{loaded.scenario.name}: {n} aircraft + {spoofer}, {loaded.scenario.duration_s:g} s, "
         f"seed {loaded.scenario.seed}, planner {planner}, {args.mode} -> {out}",
+        file=sys.stderr if args.json else sys.stdout,
         flush=True,
     )
     if args.mode == "lockstep":

@@ -64,6 +64,9 @@ class RecordingPlanner:
         return self.inner.plan(planner_input)
 
 
+HOVERING = replace(CompanionConfig(), on_arrival=OnArrival.HOVER)  # stays where checked
+
+
 class Flight:
     """Companions for the scenario's aircraft and the sim, routed in memory."""
 
@@ -75,7 +78,7 @@ class Flight:
         signing: codec.SigningConfig | None = None,
     ) -> None:
         self.scenario = scenario
-        self.config = config if config is not None else CompanionConfig()
+        self.config = config if config is not None else HOVERING
         self.sim = SimBackend(scenario, sim_config or SimConfig(), [EndpointKind.COMPANION])
         self.sinks: dict[int, MemorySink] = {}
         self.planners: dict[int, RecordingPlanner] = {}

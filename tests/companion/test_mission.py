@@ -197,7 +197,7 @@ def test_in_progress_extends_the_wait() -> None:
     ],
 )
 def test_conditions_move_the_phase(phase: Phase, status: FlightStatus, expected: Phase) -> None:
-    mission = Mission(CompanionConfig(), SYSID)
+    mission = Mission(replace(CompanionConfig(), on_arrival=OnArrival.HOVER), SYSID)
     mission.phase, mission.entered_s = phase, 0.5
     mission.step(2.0, status)
     assert mission.phase is expected
