@@ -23,6 +23,8 @@ from collections.abc import Sequence  # noqa: E402
 # Subcommand modules, in the order ``ridsafe --help`` lists them.
 _SUBCOMMAND_MODULES: tuple[str, ...] = (
     "ridsafe.tools.run_cmd",
+    "ridsafe.tools.sweep_cmd",
+    "ridsafe.tools.report_cmd",
     "ridsafe.tools.sim_cmd",
     "ridsafe.tools.gcs_cmd",
     "ridsafe.tools.companion_cmd",

@@ -9,6 +9,7 @@ gcs: {...}        # ridsafe.gcs.config.GcsConfig: cycle, ingest limits, peers
 pipeline: {...}   # ridsafe.gcs.pipeline_config.PipelineConfig: detection, localisation, IMM
 run: {...}        # RunConfig: planner name, ticks, signing, ports of a live run
 family: {...}     # optional: ridsafe.tools.scenario_gen.FamilyConfig, to draw scenarios
+sweep: {...}      # optional: ridsafe.tools.sweep_config.SweepConfig, the experiment matrix
 ```
 
 Every section is optional except ``scenario``; missing sections take their defaults.
@@ -21,6 +22,7 @@ for ``--vehicles`` / ``--aircraft``.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -33,6 +35,7 @@ from ridsafe.gcs.config import GcsConfig
 from ridsafe.gcs.pipeline_config import PipelineConfig
 from ridsafe.sim_backend.config import SimConfig
 from ridsafe.tools.scenario_gen import FamilyConfig, generate
+from ridsafe.tools.sweep_config import SweepConfig
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_SCENARIO = Path("configs") / "default.yaml"
@@ -67,6 +70,7 @@ class ScenarioFile:
     pipeline: PipelineConfig = field(default_factory=PipelineConfig)
     run: RunConfig = field(default_factory=RunConfig)
     family: FamilyConfig | None = None
+    sweep: SweepConfig | None = None  # the experiment matrix of ``ridsafe sweep``
 
 
 def resolve_config_path(path: str | Path | None) -> Path:
@@ -79,7 +83,7 @@ def resolve_config_path(path: str | Path | None) -> Path:
 
 
 def load_scenario_file(
-    path: str | Path | None = None, overrides: dict[str, object] | None = None
+    path: str | Path | None = None, overrides: Mapping[str, object] | None = None
 ) -> ScenarioFile:
     loaded = load_config(resolve_config_path(path), ScenarioFile)
     return with_overrides(loaded, overrides) if overrides else loaded
