@@ -146,7 +146,7 @@ class Companion:
         self._heartbeat = Periodic(1.0 / config.heartbeat_hz)
         self._replan = Periodic(config.replan_period_s)
         self._counters = Periodic(config.counters_period_s, config.counters_period_s)
-        self._goal_cache: tuple[frames.GeodeticOrigin, Vec3] | None = None
+        self._goal_cache: tuple[frames.GeodeticOrigin, Vec3, Vec3] | None = None
         self._out: dict[str, list[bytes]] = {AUTOPILOT: [], GCS: []}
 
     # -- the sans-I/O step ------------------------------------------------------------------
@@ -316,14 +316,18 @@ class Companion:
             self._event(now_s, "region", f"{uas_id}: expired", uas_id=uas_id)
 
     def _goal_local(self) -> Vec3 | None:
+        """The delivery point in the local frame: at cruise altitude, or on the ground (home
+        level) once the aircraft descends to deliver."""
         origin, home = self.own.home_origin, self.own.home
         if origin is None or home is None:
             return None
         if self._goal_cache is None or self._goal_cache[0] != origin:
-            alt = home.alt_msl_m + self.spec.cruise_alt_m
-            goal = self.own.to_local(self.spec.goal_lat_deg, self.spec.goal_lon_deg, alt)
-            self._goal_cache = (origin, goal)
-        return self._goal_cache[1]
+            lat, lon = self.spec.goal_lat_deg, self.spec.goal_lon_deg
+            cruise = self.own.to_local(lat, lon, home.alt_msl_m + self.spec.cruise_alt_m)
+            ground = self.own.to_local(lat, lon, home.alt_msl_m)
+            self._goal_cache = (origin, cruise, ground)
+        _, cruise, ground = self._goal_cache
+        return ground if self.mission.phase is Phase.DESCEND else cruise
 
     def _flight_status(self, now_s: float) -> FlightStatus:
         gpi, lpn, goal = self.own.gpi, self.own.lpn, self._goal_local()
@@ -569,5 +573,6 @@ _AUTOPILOT_HANDLERS: dict[type, Handler] = {
 
 _SETPOINT_ACTIONS: dict[Phase, Callable[[Companion, float], None]] = {
     Phase.CRUISE: Companion._plan,
+    Phase.DESCEND: Companion._plan,
     Phase.HOVER: Companion._hold_goal,
 }

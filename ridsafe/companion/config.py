@@ -103,6 +103,9 @@ class CompanionConfig:
     arrival_radius_m: float = 10.0  # horizontal
     arrival_alt_tolerance_m: float = 5.0
     on_arrival: OnArrival = OnArrival.LAND  # a delivery lands, and leaves the airspace
+    # Landing: the planner flies the descent to the delivery point on the ground (still
+    # avoiding traffic and unsafe regions); below this height the autopilot's LAND takes over.
+    land_handover_alt_m: float = 12.0
     settled_speed_m_s: float = 0.5  # HOVER is DONE below this speed
     # -- loops ------------------------------------------------------------------------------
     replan_period_s: float = 0.5

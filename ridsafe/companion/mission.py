@@ -3,7 +3,8 @@
 ::
 
     WAIT_HEARTBEAT -> REQUEST_STREAMS -> WAIT_DEPARTURE -> SET_GUIDED -> ARM -> TAKEOFF
-        -> CLIMB -> CRUISE -> ARRIVED -> HOVER | LAND -> DONE   (any refused step -> FAILED)
+        -> CLIMB -> CRUISE -> ARRIVED -> HOVER | DESCEND -> LAND -> DONE
+                                                          (any refused step -> FAILED)
 
 - ``PHASE_COMMANDS``: the COMMAND_LONGs a phase sends on entry, one at a time (ArduPilot
   answers commands in order and its COMMAND_ACK names only the command id).
@@ -64,6 +65,7 @@ class Phase(enum.Enum):
     CLIMB = "climb"
     CRUISE = "cruise"
     ARRIVED = "arrived"
+    DESCEND = "descend"
     HOVER = "hover"
     LAND = "land"
     DONE = "done"
@@ -81,6 +83,7 @@ class Trigger(enum.Enum):
     HOVER_CHOSEN = "configured to hover on arrival"
     LAND_CHOSEN = "configured to land on arrival"
     SETTLED = "hovering at the goal"
+    LOW_ENOUGH = "low enough to hand the landing to the autopilot"
     DISARMED = "the autopilot reports disarmed"
 
 
@@ -187,6 +190,10 @@ def _goal_reached(f: FlightStatus, c: CompanionConfig, entered_s: float) -> bool
     )
 
 
+def _low_enough(f: FlightStatus, c: CompanionConfig, entered_s: float) -> bool:
+    return f.altitude_m is not None and f.altitude_m <= c.land_handover_alt_m
+
+
 def _settled(f: FlightStatus, c: CompanionConfig, entered_s: float) -> bool:
     return f.speed_m_s is not None and f.speed_m_s <= c.settled_speed_m_s
 
@@ -201,6 +208,7 @@ PHASE_CONDITIONS: dict[Phase, tuple[tuple[Trigger, Condition], ...]] = {
         (Trigger.HOVER_CHOSEN, lambda f, c, t: c.on_arrival is OnArrival.HOVER),
         (Trigger.LAND_CHOSEN, lambda f, c, t: c.on_arrival is OnArrival.LAND),
     ),
+    Phase.DESCEND: ((Trigger.DISARMED, _disarmed), (Trigger.LOW_ENOUGH, _low_enough)),
     Phase.HOVER: ((Trigger.DISARMED, _disarmed), (Trigger.SETTLED, _settled)),
     Phase.LAND: ((Trigger.DISARMED, _disarmed),),
 }
@@ -221,7 +229,9 @@ TRANSITIONS: dict[tuple[Phase, Trigger], Phase] = {
     (Phase.CRUISE, Trigger.GOAL_REACHED): Phase.ARRIVED,
     (Phase.CRUISE, Trigger.DISARMED): Phase.FAILED,
     (Phase.ARRIVED, Trigger.HOVER_CHOSEN): Phase.HOVER,
-    (Phase.ARRIVED, Trigger.LAND_CHOSEN): Phase.LAND,
+    (Phase.ARRIVED, Trigger.LAND_CHOSEN): Phase.DESCEND,
+    (Phase.DESCEND, Trigger.LOW_ENOUGH): Phase.LAND,
+    (Phase.DESCEND, Trigger.DISARMED): Phase.FAILED,
     (Phase.HOVER, Trigger.SETTLED): Phase.DONE,
     (Phase.HOVER, Trigger.DISARMED): Phase.FAILED,
     (Phase.LAND, Trigger.DISARMED): Phase.DONE,

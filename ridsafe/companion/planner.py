@@ -32,13 +32,14 @@ trust-rid  ordinary aircraft at the claimed    ignored (the paper's baseline)
            position
 ========== ================================== ===========================================
 
-Goal handling: within ``approach_radius_m``, with no hazard in play (status ``CRUISE``), the
-setpoint is the goal itself (zero velocity): the autopilot's square-root shaper brakes onto it
-faster than any held-velocity action could. Within ``arrival_radius_m`` (3-D) the aircraft is
-*arrived* (latched) and holds the goal (or lands) unless an unsafe region engulfs it; then it
-evades and comes back. A progress watchdog reports ``STUCK`` (and logs a warning once) when the
-aircraft has not come ``stuck_progress_m`` closer to its goal than ever before for
-``stuck_after_s``; it keeps flying its best action meanwhile.
+Goal handling: within ``approach_radius_m``, with no hazard in play (status ``CRUISE``) or with
+traffic about that stays ``approach_min_separation_m`` away while the aircraft holds here and no
+region near, the setpoint is the goal itself (zero velocity): the autopilot's square-root shaper
+brakes onto it, which no held-velocity action can among traffic. Within ``arrival_radius_m``
+(3-D) the aircraft is *arrived* (latched) and holds the goal (or lands) unless an unsafe region
+engulfs it; then it evades and comes back. A progress watchdog reports ``STUCK`` (and logs a
+warning once) when the aircraft has not come ``stuck_progress_m`` closer to its goal than ever
+before for ``stuck_after_s``; it keeps flying its best action meanwhile.
 
 Deterministic: no randomness; ties between equal rollouts go to the right-hand turn.
 """
@@ -204,7 +205,7 @@ class FastMdpPlanner:
             return self._arrival_decision(goal, scene)
         index, status, value = choose_action(scores, actions, cfg)
         stuck = self._watchdog.update(planner_input.t_s, distance)
-        if status is PlannerStatus.CRUISE and distance <= cfg.approach_radius_m:
+        if distance <= cfg.approach_radius_m and self._clear_to_approach(status, scores, hover):
             return PlannerDecision(_vec(goal), (0.0, 0.0, 0.0), status, value, "approach the goal")
         if stuck and status in (PlannerStatus.CRUISE, PlannerStatus.AVOIDING):
             status = PlannerStatus.STUCK
@@ -216,6 +217,17 @@ class FastMdpPlanner:
         )
         v_target = clip_to_envelope(v_t[1], cfg)
         return PlannerDecision(_vec(p_t[0]), _vec(v_target), status, value, detail)
+
+    def _clear_to_approach(self, status: PlannerStatus, scores: RolloutScores, hover: int) -> bool:
+        """Fly at the goal itself: nothing in play, or traffic about that keeps at least
+        ``approach_min_separation_m`` while the aircraft stays here and no region near."""
+        if status is PlannerStatus.CRUISE:
+            return True
+        return (
+            status is PlannerStatus.AVOIDING
+            and scores.intrusion_m[hover] <= 0.0
+            and scores.min_separation_m[hover] >= self.config.approach_min_separation_m
+        )
 
     def _hazards(
         self, planner_input: PlannerInput

@@ -120,6 +120,9 @@ class PlannerConfig:
     neighbour_max_age_s: float = 5.0  # RID older than this is ignored (RID runs at 1 Hz)
     # -- goal handling ----------------------------------------------------------------------------
     approach_radius_m: float = 40.0  # ours: closer than this and unhindered, fly at the goal
+    # ours: ... or when others are about but none comes closer than this while the aircraft
+    # stays here (held actions cannot place it within 10 m of the goal among traffic)
+    approach_min_separation_m: float = 60.0
     arrival_radius_m: float = 10.0
     on_arrival: ArrivalAction = ArrivalAction.HOVER
     ground_down_m: float = 0.0  # NED down of the ground at the goal (home at ground level)

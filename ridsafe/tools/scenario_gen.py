@@ -44,18 +44,18 @@ class FamilyConfig:
         (380.0, -380.0, 0.0),
         (0.0, 400.0, 0.0),
     )
-    launch_interval_s: float = 5.0
+    launch_interval_s: float = 4.0
     # Pads of one depot: the first at the depot, the next on rings around it (6 q pads on
     # ring q, radius q * pad_spacing_m), so pads are >= pad_spacing_m apart: above the
     # 50 m NMAC radius, aircraft climbing from neighbouring pads do not count as an NMAC.
     pad_spacing_m: float = 55.0
-    min_trip_m: float = 350.0
-    max_trip_m: float = 650.0  # every delivery fits in a 120 s flight at 8 m/s
+    min_trip_m: float = 300.0
+    max_trip_m: float = 550.0  # a delivery, with detours and the landing, fits in 120 s
     cruise_alts_m: tuple[float, ...] = (50.0, 60.0, 70.0)
     spoofer_speed_m_s: float = 7.0
     spoofer_alt_m: float = 60.0
     spoofer_offset_enu_m: Vec3 = (50.0, 50.0, 0.0)
-    spoofer_through_radius_m: float = 150.0  # its line passes this close to the centre
+    spoofer_through_radius_m: float = 30.0  # its line passes this close to the centre
 
     def __post_init__(self) -> None:
         if not self.depots_enu_m:

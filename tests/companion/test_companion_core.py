@@ -224,13 +224,17 @@ def test_setpoints_are_resent_at_the_replan_rate_so_the_velocity_failsafe_never_
     assert gaps.max() <= flight.config.replan_period_s + 1e-6
 
 
-def test_land_on_arrival_lands_and_disarms() -> None:
+def test_land_on_arrival_descends_under_the_planner_then_lands_and_disarms() -> None:
     config = replace(CompanionConfig(), on_arrival=OnArrival.LAND)
     flight = Flight(make_scenario(1), config)
-    flight.run_until(lambda: flight.companions[1].phase is Phase.DONE, max_s=100.0)
+    flight.run_until(lambda: flight.companions[1].phase is Phase.DONE, max_s=150.0)
     assert not flight.sim.truth().armed[0]
     assert flight.sim.truth().p_enu_m[0, 2] < 0.5
-    assert [e["to"] for e in flight.events(1, "phase")][-3:] == ["arrived", "land", "done"]
+    phases = [e["to"] for e in flight.events(1, "phase")]
+    assert phases[-4:] == ["arrived", "descend", "land", "done"]
+    # the planner flew the descent: its last targets before LAND were below cruise altitude
+    descent = [p for p in flight.planners[1].inputs if p.goal_ned_m[2] > -1.0]
+    assert descent, "the planner never saw the ground-level delivery point"
 
 
 # --- Remote ID between aircraft ------------------------------------------------------------

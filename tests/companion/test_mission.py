@@ -206,9 +206,13 @@ def test_conditions_move_the_phase(phase: Phase, status: FlightStatus, expected:
 def test_arrival_lands_when_configured_and_land_ends_on_disarm() -> None:
     mission = Mission(replace(CompanionConfig(), on_arrival=OnArrival.LAND), SYSID)
     mission.phase = Phase.CRUISE
-    out = mission.step(1.0, FlightStatus(True, 1.0, True, 30, 2.0, 1.0, 6.0))
-    assert mission.phase is Phase.LAND
-    assert [c.command for c in out] == [MavCmd.NAV_LAND]
+    phases, sent = [], []
+    for altitude_m in (30.0, 12.5, 11.5):  # arrive, descend under the planner, hand over
+        sent.append(mission.step(1.0, FlightStatus(True, 1.0, True, altitude_m, 2.0, 1.0, 1.0)))
+        phases.append(mission.phase)
+    assert phases == [Phase.DESCEND, Phase.DESCEND, Phase.LAND]
+    assert sent[:2] == [[], []]  # the planner flies the descent
+    assert [c.command for c in sent[2]] == [MavCmd.NAV_LAND]
     mission.on_ack(1.1, _ack(MavCmd.NAV_LAND, MavResult.ACCEPTED))
     mission.step(1.2, FlightStatus(True, 1.1, True, 20.0))
     assert mission.phase is Phase.LAND
