@@ -56,3 +56,12 @@ def test_spoofer_crosses_the_area_near_its_centre() -> None:
         assert np.hypot(*closest[:2]) <= FAMILY.spoofer_through_radius_m + 1e-6
         assert np.linalg.norm(goal - start) >= 2 * FAMILY.half_width_m
         assert spoofer.offset_enu_m == (50.0, 50.0, 0.0)
+
+
+def test_paper_mode_flies_the_same_scenarios_as_paper() -> None:
+    """The side-by-side report compares the two configs: same family, same placeholders."""
+    paper, paper_mode = (load_scenario_file(f"configs/{n}.yaml") for n in ("paper", "paper_mode"))
+    assert paper_mode.family == paper.family
+    assert paper_mode.scenario.aircraft == paper.scenario.aircraft
+    assert paper_mode.scenario.spoofer == paper.scenario.spoofer
+    assert paper_mode.scenario.radio == paper.scenario.radio
