@@ -17,8 +17,9 @@ import functools
 import hashlib
 import logging
 import math
+import operator
 import struct
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -823,31 +824,46 @@ def x25_crc(data: bytes) -> int:
     """MAVLink's CRC-16/MCRF4XX (X.25): the reflected form of CRC-CCITT, computed with
     binascii.crc_hqx on bit-reversed bytes and bit-reversed back."""
     crc = binascii.crc_hqx(data.translate(_BIT_REVERSED), 0xFFFF)
-    return int(f"{crc:016b}"[::-1], 2)
+    return _BIT_REVERSED[crc & 0xFF] << 8 | _BIT_REVERSED[crc >> 8]
 
 
 _HEADER = struct.Struct("<BBBBBBBHB")
 
 
-def _wire_values(raw: Any) -> list[Any]:
+def _wire_values(raw: Any) -> tuple[Any, ...] | list[Any]:
     """A pymavlink message's field values in wire order, arrays flattened (what its
     ``unpacker`` packs); char arrays as bytes."""
-    values: list[Any] = []
+    message_class: Any = type(raw)
+    names, flat = _wire_plan(message_class)
+    if flat:  # scalars only, the common case: one C call
+        values = names(raw)
+        return values if isinstance(values, tuple) else (values,)
+    out: list[Any] = []
     for name in raw.ordered_fieldnames:
         value = getattr(raw, name)
         if isinstance(value, list | tuple):
-            values.extend(value)
+            out.extend(value)
         elif isinstance(value, str):
-            values.append(value.encode("latin-1"))
+            out.append(value.encode("latin-1"))
         else:
-            values.append(value)
-    return values
+            out.append(value)
+    return out
+
+
+@functools.cache
+def _wire_plan(cls: Any) -> tuple[Callable[[Any], Any], bool]:
+    """(getter of the fields in wire order, whether they are all scalars) of a message class."""
+    scalar = all(
+        length == 0 and not ftype.startswith("char")
+        for length, ftype in zip(cls.array_lengths, cls.fieldtypes, strict=True)
+    )
+    return operator.attrgetter(*cls.ordered_fieldnames), scalar
 
 
 class _RawView:
     """A decoded packet as attributes, the shape the from-MAVLink functions read."""
 
-    def __init__(self, name: str, fieldnames: tuple[str, ...], values: list[Any]) -> None:
+    def __init__(self, name: str, fieldnames: tuple[str, ...], values: Sequence[Any]) -> None:
         self._name = name
         self._fieldnames = fieldnames
         self.__dict__.update(zip(fieldnames, values, strict=True))
@@ -868,11 +884,18 @@ class _Layout:
     unpacker: struct.Struct
     fieldnames: tuple[str, ...]
     slices: tuple[tuple[int, int], ...]  # per field: (index in the unpacked tuple, length)
+    # Scalars only (no arrays, no chars): the fields in XML order straight from the tuple.
+    scalars: Callable[[tuple[Any, ...]], Any] | None
 
     def view(self, payload: bytes) -> _RawView:
         if len(payload) < self.unpacker.size:  # MAVLink 2 trims trailing zero bytes
             payload = payload + bytes(self.unpacker.size - len(payload))
         t = self.unpacker.unpack(payload[: self.unpacker.size])
+        if self.scalars is not None:
+            fields = self.scalars(t)
+            return _RawView(
+                self.name, self.fieldnames, fields if len(self.slices) > 1 else [fields]
+            )
         values: list[Any] = []
         for tip, length in self.slices:
             value = t[tip]
@@ -893,12 +916,15 @@ def _layout(msg_id: int) -> _Layout | None:
     lengths = cls.lengths
     tips = [sum(lengths[:order]) for order in cls.orders]
     slices = tuple((tip, lengths[order]) for tip, order in zip(tips, cls.orders, strict=True))
+    fmt = cls.unpacker.format
+    scalar = all(length == 1 for _, length in slices) and "s" not in fmt and "c" not in fmt
     return _Layout(
         cls.msgname,
         bytes([cls.crc_extra]),
         cls.unpacker,
         tuple(cls.fieldnames),
         slices,
+        operator.itemgetter(*(tip for tip, _ in slices)) if scalar else None,
     )
 
 
