@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 
 from ridsafe.tools.scenario import load_scenario_file
-from ridsafe.tools.scenario_gen import FamilyConfig, generate
+from ridsafe.tools.scenario_gen import FamilyConfig, _nominal_encounters, _nominal_flight, generate
 
 BASE = load_scenario_file().scenario
 FAMILY = FamilyConfig()
@@ -17,7 +18,7 @@ def test_same_seed_same_scenario_and_densities_share_their_first_aircraft() -> N
     a16 = generate(BASE, 16, 7, FAMILY)
     assert generate(BASE, 16, 7, FAMILY) == a16
     a8 = generate(BASE, 8, 7, FAMILY)
-    assert a8.aircraft == a16.aircraft[:8] and a8.spoofer == a16.spoofer
+    assert a8.aircraft == a16.aircraft[:8]
     assert generate(BASE, 16, 8, FAMILY).aircraft != a16.aircraft
 
 
@@ -56,6 +57,31 @@ def test_spoofer_crosses_the_area_near_its_centre() -> None:
         assert np.hypot(*closest[:2]) <= FAMILY.spoofer_through_radius_m + 1e-6
         assert np.linalg.norm(goal - start) >= 2 * FAMILY.half_width_m
         assert spoofer.offset_enu_m == (50.0, 50.0, 0.0)
+
+
+def test_the_spoofer_aims_at_the_traffic_and_leaves_the_aircraft_alone() -> None:
+    random_line = dataclasses.replace(FAMILY, spoofer_candidate_lines=1)
+    aimed_met, random_met = 0, 0
+    for seed in range(20):
+        aimed, plain = generate(BASE, 16, seed, FAMILY), generate(BASE, 16, seed, random_line)
+        assert aimed.aircraft == plain.aircraft
+        assert aimed.spoofer is not None and plain.spoofer is not None
+        met = _nominal_encounters(aimed.aircraft, aimed.spoofer, 120.0, FAMILY)
+        met_random = _nominal_encounters(plain.aircraft, plain.spoofer, 120.0, FAMILY)
+        assert met >= met_random  # the random line is the first candidate
+        aimed_met, random_met = aimed_met + met, random_met + met_random
+    assert aimed_met >= 1.5 * random_met > 0
+
+
+def test_nominal_flight_climbs_cruises_and_lands_on_its_goal() -> None:
+    a = generate(BASE, 1, 0, FAMILY).aircraft[0]
+    t_s = np.arange(0.0, 200.0, 0.5)
+    enu = _nominal_flight(a, t_s, FAMILY)
+    assert np.allclose(enu[0], [*a.start_enu_m[:2], 0.0])
+    assert np.allclose(enu[-1], [*a.goal_enu_m[:2], 0.0])
+    assert enu[:, 2].max() == a.cruise_alt_m
+    speed = np.linalg.norm(np.diff(enu[:, :2], axis=0), axis=1) / 0.5
+    assert speed.max() <= FAMILY.nominal_speed_m_s + 1e-9
 
 
 def test_paper_mode_flies_the_same_scenarios_as_paper() -> None:
