@@ -41,6 +41,11 @@ both are above ``min_height_m``.)
   ``scenario.companion.arrival_radius_m``, else ``scenario.planner.arrival_radius_m``, else
   10 m).
 - ``alert_time_s``: time of the first ``raised`` alert for the spoofer's serial.
+- ``detection_delay_s``: ``alert_time_s`` minus the time the spoofer's broadcasts had been
+  heard by ``DETECTION_RECEIVERS`` (4) distinct aircraft (``/radio/receptions``, any RID
+  message type): how long the GCS needed once it could in principle localise. Negative when
+  it alerted earlier; None without alert or without such receptions.
+- ``false_alerts``: ``raised`` alerts for any uas_id but the spoofer's serial.
 - ``wall_clock_s``: ``/run/end``'s wall clock; None when the run has no end record.
 - ``gcs_compute_s``: sum of ``/gcs/cycle`` ``compute_ms`` / 1000; ``gcs_update_p99_ms``
   and ``planner_decision_p99_ms`` (``/companion/decisions``): 99th percentile of
@@ -86,6 +91,8 @@ Metrics = dict[str, float | int | None]
 DEFAULT_NMAC_THRESHOLD_M = 50.0
 DEFAULT_ARRIVAL_RADIUS_M = 10.0
 DEFAULT_MIN_HEIGHT_M = 1.0
+#: Detection delay is measured from when this many aircraft had heard the spoofer.
+DETECTION_RECEIVERS = 4
 #: Truth is held this far beyond its first/last sample when interpolating; NaN further out.
 MAX_EXTRAPOLATION_S = 0.2
 #: Pairs per block in the pairwise distance computation (bounds memory for 256 aircraft).
@@ -102,6 +109,8 @@ METRIC_KEYS: tuple[str, ...] = (
     "min_distance_to_spoofer_m",
     "goal_reached_fraction",
     "alert_time_s",
+    "detection_delay_s",
+    "false_alerts",
     "wall_clock_s",
     "gcs_compute_s",
     "gcs_update_p99_ms",
@@ -216,6 +225,7 @@ class RunLog:
     regions: Regions
     gcs_compute_ms: FloatArray
     decision_compute_ms: FloatArray
+    spoofer_heard_s: float | None = None  # heard by DETECTION_RECEIVERS aircraft
 
     def __post_init__(self) -> None:
         _freeze(
@@ -267,7 +277,25 @@ def load_run(path: str | os.PathLike[str]) -> RunLog:
         regions=_regions(by_topic[topics.REGIONS]),
         gcs_compute_ms=_compute_ms(by_topic[topics.GCS_CYCLE]),
         decision_compute_ms=_compute_ms(by_topic[topics.DECISIONS]),
+        spoofer_heard_s=None if spoofer_sysid is None else heard_by_s(path, spoofer_sysid),
     )
+
+
+def heard_by_s(
+    path: str | os.PathLike[str], sender_sysid: int, receivers: int = DETECTION_RECEIVERS
+) -> float | None:
+    """When ``receivers`` distinct aircraft had heard a broadcast of ``sender_sysid``.
+
+    ``/radio/receptions`` has one writer, the sim, in time order: the scan stops there (a
+    second pass that reads the first seconds of the log, not the whole of it)."""
+    heard: set[int] = set()
+    for _topic, t_s, record in read_records(path, topics=(topics.RADIO_RX,)):
+        for item in record.get("items") or ():
+            if isinstance(item, Mapping) and item.get("sender") == sender_sysid:
+                heard.add(int(item["receiver"]))
+                if len(heard) >= receivers:
+                    return t_s
+    return None
 
 
 def _vec3(value: Sequence[float]) -> tuple[float, float, float]:
@@ -423,6 +451,21 @@ def alert_time_s(run: RunLog) -> float | None:
     return None
 
 
+def detection_delay_s(run: RunLog) -> float | None:
+    alert = alert_time_s(run)
+    if alert is None or run.spoofer_heard_s is None:
+        return None
+    return alert - run.spoofer_heard_s
+
+
+def false_alerts(run: RunLog) -> int:
+    return sum(
+        1
+        for _t, alert in run.alerts
+        if alert.get("state") == "raised" and str(alert.get("uas_id")) != run.spoofer_serial
+    )
+
+
 def _nmac(run: RunLog, min_height_m: float) -> tuple[int | None, int | None]:
     truth = run.truth
     benign = _columns(truth, run.benign_sysids)
@@ -570,6 +613,8 @@ def compute_metrics(
         else None,
         "goal_reached_fraction": _goal_fraction(run),
         "alert_time_s": alert_time_s(run),
+        "detection_delay_s": detection_delay_s(run),
+        "false_alerts": false_alerts(run),
         "wall_clock_s": None if wall is None else float(wall),
         "gcs_compute_s": float(run.gcs_compute_ms.sum() / 1000.0)
         if run.gcs_compute_ms.size

@@ -28,6 +28,8 @@ _DISPLAY: dict[str, tuple[str, str, str]] = {
     "min_distance_to_spoofer_m": ("min distance to spoofer", "m", ".1f"),
     "goal_reached_fraction": ("goal reached", "fraction", ".3f"),
     "alert_time_s": ("first alert", "s", ".2f"),
+    "detection_delay_s": ("alert after 4 aircraft heard it", "s", ".2f"),
+    "false_alerts": ("false alerts", "alerts", "d"),
     "wall_clock_s": ("wall clock", "s", ".1f"),
     "gcs_compute_s": ("GCS compute", "s", ".2f"),
     "gcs_update_p99_ms": ("GCS update p99", "ms", ".2f"),

@@ -31,6 +31,7 @@ import numpy as np
 
 from ridsafe.common.config import from_mapping, parse_yaml
 from ridsafe.common.errors import RidsafeError
+from ridsafe.tools.metrics import METRIC_KEYS
 from ridsafe.tools.scenario import ScenarioFile
 from ridsafe.tools.sweep import (
     LOG_FILE,
@@ -140,6 +141,7 @@ ROWS: tuple[Row, ...] = (
     Row("gcs_compute_s", "GCS compute (s)", COST, 2),
     Row("goal_reached_fraction", "Goal reached (fraction)", EXTRA),
     Row("alert_time_s", "Detection time (s)", EXTRA, 2),
+    Row("detection_delay_s", "Detection delay after 4 aircraft heard it (s)", EXTRA, 2),
     Row("false_alerts", "False alerts", EXTRA),
     Row("min_distance_to_spoofer_m", "Min distance to spoofer (m)", EXTRA, 1),
     Row("gcs_update_p99_ms", "GCS update p99 (ms)", EXTRA, 2),
@@ -258,7 +260,12 @@ def _metrics(run_dir: Path, result: Mapping[str, object], recompute: bool) -> tu
     log = run_dir / LOG_FILE
     cached = result.get("metrics")
     size = log.stat().st_size if log.exists() else None
-    if not recompute and isinstance(cached, dict) and size == result.get("log_size_bytes"):
+    if (
+        not recompute
+        and isinstance(cached, dict)
+        and all(key in cached for key in METRIC_KEYS)  # else a cache of an older version
+        and size == result.get("log_size_bytes")
+    ):
         return cached, False
     return run_metrics(log), True
 

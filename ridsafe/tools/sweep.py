@@ -254,19 +254,10 @@ def check_plan(plan: SweepPlan) -> None:
 
 
 def run_metrics(log_path: str | os.PathLike[str]) -> Metrics:
-    """What a sweep records per run, from its log alone: ``compute_metrics`` plus
-    ``false_alerts`` (raised alerts on any uas_id but the spoofer's; the paper does not
-    report it)."""
-    from ridsafe.tools.metrics import compute_metrics, load_run  # noqa: PLC0415
+    """What a sweep records per run: the metrics of its log alone."""
+    from ridsafe.tools.metrics import compute_metrics  # noqa: PLC0415
 
-    run = load_run(log_path)
-    metrics: Metrics = dict(compute_metrics(run))
-    metrics["false_alerts"] = sum(
-        1
-        for _t, alert in run.alerts
-        if alert.get("state") == "raised" and str(alert.get("uas_id")) != run.spoofer_serial
-    )
-    return metrics
+    return compute_metrics(log_path)
 
 
 @dataclass(frozen=True)

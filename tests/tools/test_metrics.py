@@ -296,6 +296,41 @@ def test_containment_rate_uses_interpolated_truth_and_ignores_updates_before_ale
     assert result["alert_time_s"] == pytest.approx(5.0)
 
 
+def receptions(t_s: float, sender: int, receivers: Sequence[int]) -> Any:
+    items = [{"sender": sender, "receiver": r, "msg_type": 1, "rssi_dbm": -70.0} for r in receivers]
+    return (topics.RADIO_RX, t_s, {"items": items})
+
+
+def test_detection_delay_counts_from_the_fourth_aircraft_that_heard_the_spoofer(
+    tmp_path: Path,
+) -> None:
+    benign = [still((100.0 * k, 0.0, 60.0)) for k in range(5)]
+    spoofer_sysid = 6
+    extra = [
+        receptions(1.0, 2, [1, 3, 4, 5]),  # a benign sender: not the spoofer
+        receptions(1.5, spoofer_sysid, [1, 2]),
+        receptions(2.5, spoofer_sysid, [1, 2, 3]),  # 1 and 2 again: three distinct so far
+        receptions(4.0, spoofer_sysid, [5]),  # the fourth
+        receptions(6.0, spoofer_sysid, [4]),
+        alert(3.0, uas_id="RSAF800000001"),  # a benign aircraft flagged: a false alert
+        alert(6.5),
+        alert(7.0, uas_id="RSAF800000002", state="cleared"),  # not raised: not counted
+    ]
+    result = metrics_of(tmp_path, RunSpec(benign, spoofer=_moving_spoofer(), extra=extra))
+    assert result["alert_time_s"] == pytest.approx(6.5)
+    assert result["detection_delay_s"] == pytest.approx(6.5 - 4.0)
+    assert result["false_alerts"] == 1
+
+
+def test_detection_delay_is_null_until_four_aircraft_heard_the_spoofer(tmp_path: Path) -> None:
+    benign = [still((100.0 * k, 0.0, 60.0)) for k in range(3)]
+    extra = [receptions(1.0, 4, [1, 2, 3]), alert(2.0)]
+    result = metrics_of(tmp_path, RunSpec(benign, spoofer=_moving_spoofer(), extra=extra))
+    assert result["alert_time_s"] == pytest.approx(2.0)
+    assert result["detection_delay_s"] is None
+    assert result["false_alerts"] == 0
+
+
 def test_rmse_and_mae_against_hand_computed_errors(tmp_path: Path) -> None:
     spoofer = _moving_spoofer()
 
