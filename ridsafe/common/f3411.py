@@ -58,7 +58,7 @@ from __future__ import annotations
 import enum
 import struct
 from collections import Counter
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -529,6 +529,13 @@ def split_pack(data: bytes) -> list[bytes]:
         raise F3411DecodeError(f"expected a message pack, got {message}")
     body = bytes(data)[PACK_HEADER_SIZE:]
     return [body[i : i + MESSAGE_SIZE] for i in range(0, len(body), MESSAGE_SIZE)]
+
+
+def pack(messages: Sequence[bytes]) -> bytes:
+    """A message pack of encoded 25-byte messages (refused as :func:`encode` refuses it)."""
+    body = b"".join(messages)
+    fields = {"single_message_size": MESSAGE_SIZE, "msg_pack_size": len(messages), "messages": body}
+    return encode(MessageType.MESSAGE_PACK.mavlink_name, fields)
 
 
 def decode_pack(data: bytes) -> list[DecodedMessage]:

@@ -6,7 +6,8 @@ Two layers:
    companion hands every MAVLink message of its RID transponder to ``on_mavlink`` and
    collects ``HeardBroadcast`` values from ``poll``; nothing above this interface knows which
    source it is. ``SimTransponderRssi`` is the sim transponder's: each OPEN_DRONE_ID_LOCATION
-   is followed by a RIDSAFE_RID_RSSI with the same ``id_or_mac``. A real RID receiver
+   is followed by a RIDSAFE_RID_RSSI with the same ``id_or_mac`` (a LOCATION inside an
+   OPEN_DRONE_ID_MESSAGE_PACK by the pack's RSSI). A real RID receiver
    (Wi-Fi / Bluetooth capture with RSSI) will be another implementation that ignores MAVLink.
 2. ``make_observation`` + ``ObservationBatcher``: a heard broadcast becomes an
    ``Observation`` with the receiver's own position at the receive time and is sent to the
@@ -25,6 +26,7 @@ curvature::
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 from collections import deque
@@ -37,6 +39,7 @@ from numpy.typing import NDArray
 
 from ridsafe.common import codec, frames, rid
 from ridsafe.common import messages as m
+from ridsafe.common.errors import RidsafeError
 from ridsafe.companion.rid import Periodic
 
 __all__ = [
@@ -67,6 +70,11 @@ _ODID_TYPES = (
     m.OdidSelfId,
     m.OdidRaw,
 )
+
+
+_LOCATION = int(m.OdidMessageType.LOCATION)
+_PACK = int(m.OdidMessageType.MESSAGE_PACK)
+_PairKey = tuple[bytes, int]  # (id_or_mac, F3411 type of the frame)
 
 
 @dataclass(frozen=True, slots=True)
@@ -101,8 +109,9 @@ class PairingCounters:
     out_of_order: int = 0  # the RSSI came before its LOCATION
     location_without_rssi: int = 0  # handed on with rssi None
     rssi_without_location: int = 0  # dropped: nothing to attach it to
-    rssi_other_type: int = 0  # RSSI of BASIC_ID, SYSTEM...: not used
-    other_odid: int = 0  # BASIC_ID, SYSTEM...: not used
+    rssi_other_type: int = 0  # RSSI of BASIC_ID, SYSTEM, a pack without LOCATION: not used
+    other_odid: int = 0  # BASIC_ID, SYSTEM, a pack without LOCATION...: not used
+    bad_pack: int = 0  # a message pack, or a LOCATION in one, that does not decode
 
 
 class SimTransponderRssi:
@@ -120,36 +129,61 @@ class SimTransponderRssi:
     def __init__(self, pair_timeout_s: float = 0.5) -> None:
         self.pair_timeout_s = pair_timeout_s
         self.stats = PairingCounters()
-        self._locations: dict[bytes, deque[tuple[float, m.OdidLocation]]] = {}
-        self._rssi: dict[bytes, deque[tuple[float, m.RidRssi]]] = {}
+        # Keyed by (id_or_mac, the frame's F3411 type: LOCATION, or MESSAGE_PACK for a
+        # LOCATION that came in a pack and pairs with the pack's RSSI).
+        self._locations: dict[_PairKey, deque[tuple[float, m.OdidLocation]]] = {}
+        self._rssi: dict[_PairKey, deque[tuple[float, m.RidRssi]]] = {}
         self._ready: list[HeardBroadcast] = []
 
     def on_mavlink(self, now_s: float, message: m.Message) -> None:
-        if isinstance(message, m.OdidLocation | m.RidRssi):
-            self._expire(now_s - self.pair_timeout_s, message.id_or_mac)
         if isinstance(message, m.OdidLocation):
-            waiting = self._rssi.get(message.id_or_mac)
-            if waiting:
-                _, rssi = waiting.popleft()
-                self.stats.out_of_order += 1
-                self._pair(now_s, message, rssi)
-            else:
-                self._locations.setdefault(message.id_or_mac, deque()).append((now_s, message))
+            self._on_location(now_s, message, _LOCATION)
         elif isinstance(message, m.RidRssi):
             self._on_rssi(now_s, message)
+        elif isinstance(message, m.OdidRaw) and message.name == rid.MESSAGE_PACK_NAME:
+            self._on_pack(now_s, message)
         elif isinstance(message, _ODID_TYPES):
             self.stats.other_odid += 1
 
-    def _on_rssi(self, now_s: float, rssi: m.RidRssi) -> None:
-        if rssi.odid_message_type != m.OdidMessageType.LOCATION:
-            self.stats.rssi_other_type += 1
+    def _on_location(self, now_s: float, location: m.OdidLocation, frame_type: int) -> None:
+        self._expire(now_s - self.pair_timeout_s, location.id_or_mac)
+        key = (location.id_or_mac, frame_type)
+        waiting = self._rssi.get(key)
+        if waiting:
+            _, rssi = waiting.popleft()
+            self.stats.out_of_order += 1
+            self._pair(now_s, location, rssi)
+        else:
+            self._locations.setdefault(key, deque()).append((now_s, location))
+
+    def _on_pack(self, now_s: float, pack: m.OdidRaw) -> None:
+        """A received message pack: a LOCATION in it pairs with the pack's RSSI."""
+        try:
+            found = rid.location_in_pack(pack)
+        except RidsafeError as exc:
+            self.stats.bad_pack += 1
+            logger.info("unreadable message pack: %s", exc)
             return
-        waiting = self._locations.get(rssi.id_or_mac)
+        for error in found.errors:
+            self.stats.bad_pack += 1
+            logger.info("unreadable LOCATION in a message pack: %s", error)
+        locations = [loc for loc in found.messages if isinstance(loc, m.OdidLocation)]
+        if not locations:
+            self.stats.other_odid += 1
+        for location in locations:
+            self._on_location(now_s, location, _PACK)
+
+    def _on_rssi(self, now_s: float, rssi: m.RidRssi) -> None:
+        self._expire(now_s - self.pair_timeout_s, rssi.id_or_mac)
+        key = (rssi.id_or_mac, rssi.odid_message_type)
+        waiting = self._locations.get(key)
         if waiting:
             rx_t_s, location = waiting.popleft()
             self._pair(rx_t_s, location, rssi)
-        else:
-            self._rssi.setdefault(rssi.id_or_mac, deque()).append((now_s, rssi))
+        elif rssi.odid_message_type == _LOCATION:  # its LOCATION may still come
+            self._rssi.setdefault(key, deque()).append((now_s, rssi))
+        else:  # BASIC_ID, SYSTEM, a pack without LOCATION (a pack comes before its RSSI)
+            self.stats.rssi_other_type += 1
 
     def _pair(self, rx_t_s: float, location: m.OdidLocation, rssi: m.RidRssi) -> None:
         self.stats.paired += 1
@@ -161,14 +195,15 @@ class SimTransponderRssi:
         out.sort(key=lambda heard: heard.rx_t_s)
         return out
 
-    def _expire(self, cutoff_s: float, key: bytes | None = None) -> None:
+    def _expire(self, cutoff_s: float, id_or_mac: bytes | None = None) -> None:
         """Settle what waited since before ``cutoff_s`` (for one id, or all): a LOCATION
         goes on without RSSI, an RSSI is dropped."""
-        for rx_t_s, location in _take_old(self._locations, cutoff_s, key):
+        keys = None if id_or_mac is None else [(id_or_mac, _LOCATION), (id_or_mac, _PACK)]
+        for rx_t_s, location in _take_old(self._locations, cutoff_s, keys):
             self.stats.location_without_rssi += 1
             logger.info("RID LOCATION from %r came without RSSI", location.id_or_mac)
             self._ready.append(HeardBroadcast(location, None, rx_t_s))
-        for _, rssi in _take_old(self._rssi, cutoff_s, key):
+        for _, rssi in _take_old(self._rssi, cutoff_s, keys):
             self.stats.rssi_without_location += 1
             logger.info("RSSI for %r came without its LOCATION; dropped", rssi.id_or_mac)
 
@@ -177,18 +212,21 @@ class SimTransponderRssi:
 
 
 def _take_old(
-    queues: dict[bytes, deque[tuple[float, Any]]], cutoff_s: float, key: bytes | None
+    queues: dict[_PairKey, deque[tuple[float, Any]]],
+    cutoff_s: float,
+    keys: list[_PairKey] | None,
 ) -> list[Any]:
-    """Remove and return the entries received before ``cutoff_s``; drop emptied queues."""
+    """Remove and return the entries received before ``cutoff_s`` (of ``keys``, or all);
+    drop emptied queues."""
     out: list[Any] = []
-    for name in list(queues) if key is None else [key]:
-        queue = queues.get(name)
+    for key in list(queues) if keys is None else keys:
+        queue = queues.get(key)
         if queue is None:
             continue
         while queue and queue[0][0] < cutoff_s:
             out.append(queue.popleft())
         if not queue:
-            del queues[name]
+            del queues[key]
     return out
 
 
@@ -325,6 +363,7 @@ class ObservationCounters:
     sent_before_gcs_seen: int = 0
 
 
+@functools.lru_cache(maxsize=1024)
 def claimed_id(id_or_mac: bytes) -> str:
     """The claimed UAS id as text: printable ASCII kept, anything else as '?'."""
     return "".join(chr(b) if 32 <= b < 127 else "?" for b in id_or_mac[: codec.ODID_ID_LEN])

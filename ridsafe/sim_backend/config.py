@@ -54,6 +54,9 @@ class SimConfig:
     telemetry_hz: TelemetryRatesHz = field(default_factory=TelemetryRatesHz)
     ports: SimPorts = field(default_factory=SimPorts)
     transponder_heartbeat_hz: float = 1.0
+    # Transponders broadcast the static RID messages as one message pack (Bluetooth 5 long
+    # range, Wi-Fi) rather than a frame each (Bluetooth 4 legacy advertising).
+    rid_static_as_pack: bool = True
     truth_log_hz: float = 10.0
 
     def __post_init__(self) -> None:

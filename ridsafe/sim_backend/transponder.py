@@ -5,11 +5,14 @@ form (rejected inputs are logged and counted, never put on the air). LOCATION (a
 AUTHENTICATION / MESSAGE_PACK) frames go on the air as they come; the static messages
 (BASIC_ID, SYSTEM, OPERATOR_ID, SELF_ID) are kept and re-broadcast on the transponder's own
 cadence, every ``STATIC_PERIOD_S`` (ASTM F3411 asks for them at least every 3 s), however
-often the companion refreshes them.
+often the companion refreshes them: together in one message pack (``static_as_pack``, as
+Bluetooth 5 long range and Wi-Fi broadcasts carry them), or one frame each (Bluetooth 4
+legacy advertising).
 Receive: a frame from the air is decoded and handed to the companion as the matching
-OPEN_DRONE_ID_* message with ``id_or_mac`` set to the sender's radio id, followed by a
-RIDSAFE_RID_RSSI with its signal strength and receive time. Quantisation on the air is
-therefore real: receivers see exactly what F3411 can carry.
+OPEN_DRONE_ID_* message with ``id_or_mac`` set to the sender's radio id (a message pack as
+one OPEN_DRONE_ID_MESSAGE_PACK, after checking every message in it decodes), followed by one
+RIDSAFE_RID_RSSI with the frame's signal strength, F3411 type and receive time. Quantisation
+on the air is therefore real: receivers see exactly what F3411 can carry.
 
 ARM_STATUS follows ArduPilot's expectation: ready (status 0) once the companion has sent
 BASIC_ID, SYSTEM and LOCATION within the last 3 s, otherwise status 1 with the reason.
@@ -54,8 +57,15 @@ class TransponderCounters:
 class Transponder:
     """Sans-I/O RID transponder of vehicle ``sysid`` whose radio id is ``radio_id``."""
 
-    def __init__(self, sysid: int, radio_id: bytes, static_phase_s: float = 0.0) -> None:
+    def __init__(
+        self,
+        sysid: int,
+        radio_id: bytes,
+        static_phase_s: float = 0.0,
+        static_as_pack: bool = True,
+    ) -> None:
         self.sysid = sysid
+        self.static_as_pack = static_as_pack
         self.radio_id = radio_id
         self.counters = TransponderCounters()
         self._last_from_companion_s: dict[str, float] = {}
@@ -100,12 +110,15 @@ class Transponder:
         return dict(self._static_frames)
 
     def due_static(self, now_s: float) -> list[bytes]:
-        """The static frames to re-broadcast now (every ``STATIC_PERIOD_S``)."""
+        """The static frames to re-broadcast now (every ``STATIC_PERIOD_S``): one message
+        pack of them all with ``static_as_pack`` (a lone message goes alone)."""
         if now_s < self._next_static_s - 1e-9:
             return []
         missed = math.floor((now_s - self._next_static_s) / STATIC_PERIOD_S + 1e-9)
         self._next_static_s += (max(missed, 0) + 1) * STATIC_PERIOD_S
         frames = list(self._static_frames.values())
+        if self.static_as_pack and len(frames) > 1:
+            frames = [f3411.pack(frames)]
         self.counters.sent += len(frames)
         return frames
 
@@ -141,14 +154,13 @@ class Transponder:
         self, now_s: float, decoded: DecodedFrame, sender_id: bytes, rssi_dbm: float
     ) -> list[m.Message]:
         """What this transponder gives its companion for a frame ``decode_frame`` decoded
-        (decoding once serves every receiver of a transmission)."""
+        (decoding once serves every receiver of a transmission): the message, then the
+        frame's RSSI."""
         self.counters.decode_failed += decoded.failures
-        out: list[m.Message] = []
-        for message, msg_type in decoded.messages:
-            self.counters.received += 1
-            out.append(message)
-            out.append(m.RidRssi(now_s, rssi_dbm, sender_id, msg_type))
-        return out
+        if decoded.message is None:
+            return []
+        self.counters.received += 1
+        return [decoded.message, m.RidRssi(now_s, rssi_dbm, sender_id, decoded.msg_type)]
 
     def arm_status(self, now_s: float) -> m.OdidArmStatus:
         missing = sorted(
@@ -167,29 +179,31 @@ class Transponder:
 
 @dataclass(frozen=True)
 class DecodedFrame:
-    """The ODID messages in one frame (with ``id_or_mac`` = the sender) and their F3411
-    types; ``failures`` counts parts that could not be decoded."""
+    """A frame from the air as the OPEN_DRONE_ID_* message for the companion (``id_or_mac`` =
+    the sender; None when it cannot be handed over) and its F3411 type; ``failures`` counts
+    parts that could not be decoded."""
 
-    messages: tuple[tuple[m.Message, int], ...]
+    message: m.Message | None
+    msg_type: int
     failures: int = 0
 
 
 def decode_frame(frame: bytes, sender_id: bytes) -> DecodedFrame:
-    """Decode a frame from the air (a single message or a message pack)."""
+    """Decode a frame from the air (a single message, or a message pack whose messages must
+    all decode: a receiver hands on no pack it could not read)."""
+    id_or_mac = list(sender_id.ljust(20, b"\x00"))
     try:
-        is_pack = f3411.message_type(frame) is f3411.MessageType.MESSAGE_PACK
-        parts = f3411.split_pack(frame) if is_pack else [frame]
-        decoded = [(f3411.decode(part), int(f3411.message_type(part))) for part in parts]
+        msg_type = int(f3411.message_type(frame))
+        decoded = f3411.decode(frame)
+        if msg_type == f3411.MessageType.MESSAGE_PACK:
+            f3411.decode_pack(frame)
     except RidsafeError as exc:
         logger.warning("undecodable frame from %r: %s", sender_id, exc)
-        return DecodedFrame((), 1)
-    messages: list[tuple[m.Message, int]] = []
-    failures = 0
-    for (name, fields), msg_type in decoded:
-        tagged = dict(fields, id_or_mac=list(sender_id.ljust(20, b"\x00")))
-        try:
-            messages.append((codec.message_from_fields(name, tagged), msg_type))
-        except (RidsafeError, ValueError, TypeError) as exc:
-            failures += 1
-            logger.warning("cannot hand over %s from %r: %s", name, sender_id, exc)
-    return DecodedFrame(tuple(messages), failures)
+        return DecodedFrame(None, -1, 1)
+    name, fields = decoded
+    try:
+        message = codec.message_from_fields(name, dict(fields, id_or_mac=id_or_mac))
+    except (RidsafeError, ValueError, TypeError) as exc:
+        logger.warning("cannot hand over %s from %r: %s", name, sender_id, exc)
+        return DecodedFrame(None, msg_type, 1)
+    return DecodedFrame(message, msg_type)

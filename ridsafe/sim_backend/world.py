@@ -137,7 +137,12 @@ class SimBackend:
             0.0, STATIC_PERIOD_S, self.n_vehicles
         )
         self.transponders = [
-            Transponder(i + 1, scenario.serial_of(i + 1).encode("ascii"), float(phases[i]))
+            Transponder(
+                i + 1,
+                scenario.serial_of(i + 1).encode("ascii"),
+                float(phases[i]),
+                self.config.rid_static_as_pack,
+            )
             for i in range(self.n_vehicles)
         ]
         self.autopilots = [self._make_autopilot(i) for i in range(self.n_vehicles)]

@@ -16,7 +16,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ridsafe.common import frames, rid, topics
+from ridsafe.common import codec, f3411, frames, rid, topics
 from ridsafe.common import messages as m
 from ridsafe.companion.observations import (
     UNKNOWN_RID_TIMESTAMP_S,
@@ -30,6 +30,7 @@ from ridsafe.companion.observations import (
     claimed_id,
     make_observation,
 )
+from ridsafe.sim_backend.transponder import Transponder
 
 A, B = b"RSAF800000001", b"RSAF800000002"
 LOC = int(m.OdidMessageType.LOCATION)
@@ -115,6 +116,38 @@ def test_rssi_of_other_message_types_and_other_odid_messages_are_counted_not_pai
     assert source.poll(1.0) == [HeardBroadcast(loc, -61.0, 1.0)]
     counters = source.counters()
     assert counters["rssi_other_type"] == 1 and counters["other_odid"] == 1
+
+
+def _heard_pack(sender: bytes, dbm: float, *messages: m.Message) -> list[m.Message]:
+    """What a receiving transponder hands its companion for a message pack on the air."""
+    frames = [f3411.encode(*codec.odid_fields(message)) for message in messages]
+    return Transponder(9, b"RSAF800000009").receive(0.0, f3411.pack(frames), sender, dbm)
+
+
+def test_a_location_in_a_message_pack_pairs_with_the_packs_rssi() -> None:
+    source = _source()
+    loc = _location(A)
+    pack, rssi = _heard_pack(A, -72.0, rid.basic_id("RSAF800000001"), loc)
+    assert rssi == _rssi(A, -72.0, int(m.OdidMessageType.MESSAGE_PACK))
+    source.on_mavlink(1.0, pack)
+    source.on_mavlink(1.0, rssi)
+    (heard,) = source.poll(1.0)
+    assert heard.rssi_dbm == -72.0 and heard.rx_t_s == 1.0
+    assert heard.location.id_or_mac == A
+    assert heard.location.lat_deg == pytest.approx(loc.lat_deg, abs=1e-7)
+    assert source.counters()["paired"] == 1
+
+
+def test_a_pack_without_location_neither_pairs_nor_takes_a_locations_rssi() -> None:
+    source = _source()
+    statics = _heard_pack(A, -72.0, rid.basic_id("RSAF800000001"), rid.operator_id("OP-1"))
+    loc = _location(A)
+    for message in [loc, *statics, _rssi(A, -70.0)]:
+        source.on_mavlink(2.0, message)
+    assert source.poll(2.0) == [HeardBroadcast(loc, -70.0, 2.0)]
+    counters = source.counters()
+    assert counters["other_odid"] == 1 and counters["rssi_other_type"] == 1
+    assert counters["rssi_without_location"] == 0
 
 
 @settings(max_examples=200, deadline=None)

@@ -211,13 +211,28 @@ def test_the_rssi_after_each_location_is_that_of_the_true_position(
         assert abs(rssi.rssi_dbm - fspl_dbm(20.0, claimed_d)) > 0.5  # tells them apart
 
 
-def test_the_spoofers_static_messages_arrive(heard_by_vehicle_1: list[Heard]) -> None:
-    basic = [h.message for h in heard_by_vehicle_1 if isinstance(h.message, m.OdidBasicId)]
-    assert basic
-    assert all(b.uas_id_str == SPOOFER_SERIAL for b in basic)
-    assert all(b.id_or_mac == SPOOFER_SERIAL.encode() for b in basic)
-    assert any(isinstance(h.message, m.OdidSystem) for h in heard_by_vehicle_1)
-    assert any(isinstance(h.message, m.OdidOperatorId) for h in heard_by_vehicle_1)
+def test_the_spoofers_static_messages_arrive_in_a_pack_with_one_rssi(
+    heard_by_vehicle_1: list[Heard],
+) -> None:
+    packs = [
+        (k, h.message)
+        for k, h in enumerate(heard_by_vehicle_1)
+        if isinstance(h.message, m.OdidRaw) and h.message.name == rid.MESSAGE_PACK_NAME
+    ]
+    assert packs
+    for k, pack in packs:
+        after = heard_by_vehicle_1[k + 1].message
+        assert isinstance(after, m.RidRssi)
+        assert after.odid_message_type == int(m.OdidMessageType.MESSAGE_PACK)
+        assert after.id_or_mac == SPOOFER_SERIAL.encode()
+        contents = rid.messages_in_pack(pack)
+        assert not contents.errors
+        inside = contents.messages
+        basic = [msg for msg in inside if isinstance(msg, m.OdidBasicId)]
+        assert len(basic) == 1 and basic[0].uas_id_str == SPOOFER_SERIAL
+        assert all(getattr(msg, "id_or_mac", None) == SPOOFER_SERIAL.encode() for msg in inside)
+        assert any(isinstance(msg, m.OdidSystem) for msg in inside)
+        assert any(isinstance(msg, m.OdidOperatorId) for msg in inside)
 
 
 def test_autopilot_and_transponder_heartbeats_arrive(heard_by_vehicle_1: list[Heard]) -> None:

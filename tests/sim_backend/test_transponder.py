@@ -326,7 +326,7 @@ def _frame(message: m.Message) -> bytes:
     return f3411.encode(*codec.odid_fields(message))
 
 
-def test_a_message_pack_yields_each_message_followed_by_its_rssi() -> None:
+def test_a_message_pack_is_handed_over_whole_followed_by_one_rssi() -> None:
     messages = {label: message for label, message, *_ in CASES}
     pack = _pack(
         _frame(messages["basic_id"]),
@@ -335,11 +335,35 @@ def test_a_message_pack_yields_each_message_followed_by_its_rssi() -> None:
     )
     rx = Transponder(2, b"RSAF800000002")
     out = rx.receive(7.0, pack, SENDER_ID, -88.5)
-    assert len(out) == 6
-    for k, (label, odid_type) in enumerate([("basic_id", 0), ("location", 1), ("operator_id", 5)]):
-        assert _same(out[2 * k], RECEIVED[label]), out[2 * k]
-        assert out[2 * k + 1] == m.RidRssi(7.0, -88.5, SENDER_ID, odid_type)
-    assert (rx.counters.received, rx.counters.decode_failed) == (3, 0)
+    assert len(out) == 2
+    handed, rssi = out
+    assert isinstance(handed, m.OdidRaw) and handed.name == rid.MESSAGE_PACK_NAME
+    assert rssi == m.RidRssi(7.0, -88.5, SENDER_ID, int(m.OdidMessageType.MESSAGE_PACK))
+    contents = rid.messages_in_pack(handed)
+    assert contents.errors == ()
+    assert len(contents.messages) == 3
+    for got, label in zip(contents.messages, ["basic_id", "location", "operator_id"], strict=True):
+        assert _same(got, RECEIVED[label]), got
+    located = rid.location_in_pack(handed).messages
+    assert len(located) == 1 and _same(located[0], RECEIVED["location"])
+    assert (rx.counters.received, rx.counters.decode_failed) == (1, 0)
+
+
+def test_static_messages_go_on_the_air_as_one_pack_or_a_frame_each() -> None:
+    statics: list[m.Message] = [
+        rid.basic_id(SERIAL),
+        rid.operator_id("OP-1"),
+        m.OdidSelfId(b"", 0, "x"),
+    ]
+    frames: dict[bool, list[bytes]] = {}
+    for as_pack in (True, False):
+        tx = Transponder(1, SENDER_ID, static_as_pack=as_pack)
+        for message in statics:
+            assert tx.on_message(0.0, message) is None
+        frames[as_pack] = tx.due_static(0.0)
+        assert tx.counters.sent == len(frames[as_pack])
+    assert len(frames[False]) == 3
+    assert frames[True] == [_pack(*frames[False])]
 
 
 def test_a_message_pack_from_the_companion_goes_on_the_air_as_a_pack() -> None:
@@ -389,9 +413,21 @@ def test_undecodable_frames_are_counted_and_yield_nothing(frame: bytes) -> None:
 def test_a_bad_message_inside_a_pack_does_not_hide_the_good_ones() -> None:
     pack = _pack(_location_with_latitude(-950_000_000), _frame(rid.basic_id(SERIAL)))
     rx = Transponder(2, b"RSAF800000002")
-    out = rx.receive(1.0, pack, SENDER_ID, -60.0)
-    assert out == [RECEIVED["basic_id"], m.RidRssi(1.0, -60.0, SENDER_ID, 0)]
-    assert (rx.counters.received, rx.counters.decode_failed) == (1, 1)
+    handed, rssi = rx.receive(1.0, pack, SENDER_ID, -60.0)
+    assert rssi == m.RidRssi(1.0, -60.0, SENDER_ID, int(m.OdidMessageType.MESSAGE_PACK))
+    assert isinstance(handed, m.OdidRaw)
+    contents = rid.messages_in_pack(handed)
+    assert contents.messages == (RECEIVED["basic_id"],)
+    assert len(contents.errors) == 1 and contents.errors[0].startswith("message 0: ")
+    assert rid.location_in_pack(handed).messages == ()
+
+
+def test_a_pack_that_does_not_decode_is_not_handed_over() -> None:
+    pack = bytearray(_pack(_frame(rid.basic_id(SERIAL)), _frame(rid.operator_id("OP-1"))))
+    pack[2] = 7  # claims 7 messages, holds 2
+    rx = Transponder(2, b"RSAF800000002")
+    assert rx.receive(1.0, bytes(pack), SENDER_ID, -60.0) == []
+    assert (rx.counters.received, rx.counters.decode_failed) == (0, 1)
 
 
 # --- ARM_STATUS and heartbeat ----------------------------------------------------------------
