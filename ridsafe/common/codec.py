@@ -828,36 +828,40 @@ def x25_crc(data: bytes) -> int:
 
 
 _HEADER = struct.Struct("<BBBBBBBHB")
+_IFLAG_SIGNED = mav.MAVLINK_IFLAG_SIGNED
 
 
 def _wire_values(raw: Any) -> tuple[Any, ...] | list[Any]:
     """A pymavlink message's field values in wire order, arrays flattened (what its
     ``unpacker`` packs); char arrays as bytes."""
     message_class: Any = type(raw)
-    names, flat = _wire_plan(message_class)
-    if flat:  # scalars only, the common case: one C call
-        values = names(raw)
+    getter, arrays, chars = _wire_plan(message_class)
+    values = getter(raw)
+    if not (arrays or chars):  # scalars only, the common case: one C call
         return values if isinstance(values, tuple) else (values,)
-    out: list[Any] = []
-    for name in raw.ordered_fieldnames:
-        value = getattr(raw, name)
-        if isinstance(value, list | tuple):
-            out.extend(value)
-        elif isinstance(value, str):
-            out.append(value.encode("latin-1"))
-        else:
-            out.append(value)
+    out = list(values)
+    for index in chars:
+        if isinstance(out[index], str):
+            out[index] = out[index].encode("latin-1")
+    for index in reversed(arrays):  # from the end: earlier indices stay valid
+        out[index : index + 1] = out[index]
     return out
 
 
 @functools.cache
-def _wire_plan(cls: Any) -> tuple[Callable[[Any], Any], bool]:
-    """(getter of the fields in wire order, whether they are all scalars) of a message class."""
-    scalar = all(
-        length == 0 and not ftype.startswith("char")
-        for length, ftype in zip(cls.array_lengths, cls.fieldtypes, strict=True)
+def _wire_plan(cls: Any) -> tuple[Callable[[Any], Any], tuple[int, ...], tuple[int, ...]]:
+    """(getter of the fields in wire order, indices of arrays, indices of chars) of a
+    message class."""
+    ordered = list(cls.ordered_fieldnames)
+    # array_lengths and fieldtypes are in wire order, like ordered_fieldnames
+    kinds = dict(zip(ordered, zip(cls.array_lengths, cls.fieldtypes, strict=True), strict=True))
+    arrays = tuple(
+        i
+        for i, name in enumerate(ordered)
+        if kinds[name][0] > 0 and not kinds[name][1].startswith("char")
     )
-    return operator.attrgetter(*cls.ordered_fieldnames), scalar
+    chars = tuple(i for i, name in enumerate(ordered) if kinds[name][1].startswith("char"))
+    return operator.attrgetter(*ordered), arrays, chars
 
 
 class _RawView:
@@ -884,27 +888,26 @@ class _Layout:
     unpacker: struct.Struct
     fieldnames: tuple[str, ...]
     slices: tuple[tuple[int, int], ...]  # per field: (index in the unpacked tuple, length)
-    # Scalars only (no arrays, no chars): the fields in XML order straight from the tuple.
-    scalars: Callable[[tuple[Any, ...]], Any] | None
+    # The first unpacked item of every field, in XML order, in one C call; then the few
+    # fields that are more than that: arrays (field index, tip, length) and char arrays.
+    firsts: Callable[[tuple[Any, ...]], Any]
+    arrays: tuple[tuple[int, int, int], ...]
+    chars: tuple[int, ...]
 
     def view(self, payload: bytes) -> _RawView:
         if len(payload) < self.unpacker.size:  # MAVLink 2 trims trailing zero bytes
             payload = payload + bytes(self.unpacker.size - len(payload))
         t = self.unpacker.unpack(payload[: self.unpacker.size])
-        if self.scalars is not None:
-            fields = self.scalars(t)
-            return _RawView(
-                self.name, self.fieldnames, fields if len(self.slices) > 1 else [fields]
-            )
-        values: list[Any] = []
-        for tip, length in self.slices:
-            value = t[tip]
-            if isinstance(value, bytes):
-                values.append(value.rstrip(b"\x00"))
-            elif length == 1:
-                values.append(value)
-            else:
-                values.append(list(t[tip : tip + length]))
+        firsts = self.firsts(t)
+        if len(self.slices) == 1:
+            firsts = (firsts,)
+        if not (self.arrays or self.chars):
+            return _RawView(self.name, self.fieldnames, firsts)
+        values = list(firsts)
+        for index, tip, length in self.arrays:
+            values[index] = t[tip : tip + length]
+        for index in self.chars:
+            values[index] = values[index].rstrip(b"\x00")
         return _RawView(self.name, self.fieldnames, values)
 
 
@@ -916,16 +919,38 @@ def _layout(msg_id: int) -> _Layout | None:
     lengths = cls.lengths
     tips = [sum(lengths[:order]) for order in cls.orders]
     slices = tuple((tip, lengths[order]) for tip, order in zip(tips, cls.orders, strict=True))
-    fmt = cls.unpacker.format
-    scalar = all(length == 1 for _, length in slices) and "s" not in fmt and "c" not in fmt
+    firsts = cls.unpacker.unpack(bytes(cls.unpacker.size))
     return _Layout(
         cls.msgname,
         bytes([cls.crc_extra]),
         cls.unpacker,
         tuple(cls.fieldnames),
         slices,
-        operator.itemgetter(*(tip for tip, _ in slices)) if scalar else None,
+        operator.itemgetter(*(tip for tip, _ in slices)),
+        tuple((i, tip, length) for i, (tip, length) in enumerate(slices) if length > 1),
+        tuple(i for i, (tip, _) in enumerate(slices) if isinstance(firsts[tip], bytes)),
     )
+
+
+# Payloads of the messages packed last, by identity: the sim hands one decoded RID frame to
+# every receiver, so the same (immutable) message object is packed once per receiver. Keeping
+# the object in the cache keeps its id from being reused while the entry lives.
+_PAYLOAD_CACHE_SIZE = 512
+_payloads: dict[int, tuple[m.Message, int, int, bytes]] = {}
+
+
+def _payload(message: m.Message) -> tuple[int, int, bytes]:
+    """(message id, CRC extra, payload bytes) of a domain message."""
+    cached = _payloads.get(id(message))
+    if cached is not None and cached[0] is message:
+        return cached[1], cached[2], cached[3]
+    raw = to_mavlink(message)
+    payload = raw.unpacker.pack(*_wire_values(raw))
+    entry = (message, type(raw).id, raw.crc_extra, payload)  # STATUSTEXT has an "id" field
+    if len(_payloads) >= _PAYLOAD_CACHE_SIZE:
+        _payloads.clear()
+    _payloads[id(message)] = entry
+    return entry[1], entry[2], entry[3]
 
 
 # --- one end of a link ----------------------------------------------------------------------
@@ -962,9 +987,8 @@ class MavlinkLink:
 
     def pack(self, message: m.Message) -> bytes:
         """Encode one message as one MAVLink 2 packet and advance the sequence number."""
-        raw = to_mavlink(message)
-        payload = raw.unpacker.pack(*_wire_values(raw))
-        data = self._frame(type(raw).id, raw.crc_extra, payload)  # STATUSTEXT has an "id" field
+        msg_id, crc_extra, payload = _payload(message)
+        data = self._frame(msg_id, crc_extra, payload)
         self._mav.seq = (self._mav.seq + 1) % 256
         return data
 
@@ -1004,7 +1028,8 @@ class MavlinkLink:
         the start of the next datagram. Pass ``end_of_datagram=False`` for a byte stream
         (serial, TCP) where packets may be split across reads.
         """
-        buf = self._pending + bytes(data) if self._pending else bytes(data)
+        data = data if type(data) is bytes else bytes(data)
+        buf = self._pending + data if self._pending else data
         self._pending = b""
         received: list[Received] = []
         i, n = 0, len(buf)
@@ -1015,12 +1040,12 @@ class MavlinkLink:
             if n - i < _HEADER_LEN + _CRC_LEN:
                 break
             mlen, incompat = buf[i + 1], buf[i + 2]
-            if incompat & ~mav.MAVLINK_IFLAG_SIGNED:
+            if incompat & ~_IFLAG_SIGNED:
                 self._drop("bad_data", f"unknown incompat_flags 0x{incompat:02x}")
                 i += 1
                 continue
             end = i + _HEADER_LEN + mlen + _CRC_LEN
-            if incompat & mav.MAVLINK_IFLAG_SIGNED:
+            if incompat & _IFLAG_SIGNED:
                 end += _SIGNATURE_LEN
             if end > n:
                 break
@@ -1061,7 +1086,9 @@ class MavlinkLink:
             self._drop("bad_data", f"CRC mismatch in message {msg_id} from {src_system}")
             return 1, None
         signed = len(packet) > crc_end + _CRC_LEN
-        if not self._signature_ok(packet, signed, src_system, src_component):
+        if self.signing is not None and not self._signature_ok(
+            packet, signed, src_system, src_component
+        ):
             return len(packet), None
         raw = layout.view(packet[_HEADER_LEN:crc_end])
         try:
