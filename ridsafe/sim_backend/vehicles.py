@@ -53,6 +53,9 @@ FloatArray = NDArray[np.float64]
 
 # advance_to() rounds t_s * controller_hz to a whole period when it is this close to one.
 _PERIOD_TOLERANCE = 1e-9
+#: Land detector thresholds (see ``OctorotorFleet.on_ground``).
+ON_GROUND_HEIGHT_M = 0.05
+ON_GROUND_SPEED_M_S = 0.1
 
 
 @jit_kernel
@@ -165,9 +168,14 @@ class OctorotorFleet:
 
     @property
     def on_ground(self) -> NDArray[np.bool_]:
-        """``(N,)``: resting on the ground (z = 0 and not moving)."""
-        resting: NDArray[np.bool_] = np.all(self._state[:, VEL_ENU] == 0.0, axis=1)
-        return (self._state[:, IDX_Z] <= 0.0) & resting
+        """``(N,)``: on the ground, as a land detector sees it: within ``ON_GROUND_HEIGHT_M``
+        of it and slower than ``ON_GROUND_SPEED_M_S`` (thresholds, as ArduCopter's detector
+        has: quantised thrust around m g lifts a waiting vehicle by micrometres now and then)."""
+        speed = np.linalg.norm(self._state[:, VEL_ENU], axis=1)
+        on_ground: NDArray[np.bool_] = (self._state[:, IDX_Z] <= ON_GROUND_HEIGHT_M) & (
+            speed <= ON_GROUND_SPEED_M_S
+        )
+        return on_ground
 
     @property
     def last_command(self) -> tuple[FloatArray, FloatArray]:
