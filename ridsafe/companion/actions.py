@@ -25,6 +25,7 @@ and the down speed stays between theirs; |dv/dtau| = a <= g tan(max_tilt) keeps 
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -84,33 +85,45 @@ def heading_to_rad(p_ned_m: ArrayLike, goal_ned_m: ArrayLike) -> float:
 def build_action_set(cfg: PlannerConfig, goal_heading_rad: float) -> ActionSet:
     """All actions of one decision: headings x speeds x flight-path angles, climb, descend,
     hover."""
-    absolute = 2.0 * np.pi * np.arange(cfg.n_headings) / cfg.n_headings
+    absolute_rad, horizontal, down, speed, gamma = _primitives(cfg)
     relative = goal_heading_rad + np.radians(np.asarray(cfg.goal_heading_offsets_deg))
-    headings = np.concatenate([absolute, relative])
-    psi, speed, gamma = np.meshgrid(
-        headings,
+    headings = np.concatenate([absolute_rad, relative])[:, None]  # (H, 1)
+    n = headings.shape[0] * horizontal.shape[0] + 3
+    velocity = np.empty((n, 3))
+    velocity[:-3, 0] = (horizontal * np.cos(headings)).ravel()
+    velocity[:-3, 1] = (horizontal * np.sin(headings)).ravel()
+    velocity[:-3, 2] = np.broadcast_to(down, (headings.shape[0], down.shape[0])).ravel()
+    velocity[-3:] = ((0.0, 0.0, -cfg.max_climb_m_s), (0.0, 0.0, cfg.max_descent_m_s), (0, 0, 0))
+    psi = np.empty(n)
+    psi[:-3] = np.repeat(headings[:, 0], horizontal.shape[0])
+    psi[-3:] = goal_heading_rad
+    vertical_speeds = (cfg.max_climb_m_s, cfg.max_descent_m_s, 0.0)
+    speeds = np.concatenate([np.tile(speed, headings.shape[0]), vertical_speeds])
+    gammas = np.concatenate([np.tile(gamma, headings.shape[0]), (np.pi / 2, -np.pi / 2, 0.0)])
+    turn = np.zeros(n)
+    turn[:-3] = np.sin(psi[:-3] - goal_heading_rad)
+    return ActionSet(psi, speeds, gammas, velocity, turn)
+
+
+@functools.lru_cache(maxsize=16)
+def _primitives(
+    cfg: PlannerConfig,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """What does not depend on the goal: the absolute headings (rad), and per (speed, angle)
+    pair, speed-major, eq. (1)'s horizontal speed V cos gamma, its clipped down speed, V and
+    gamma (rad)."""
+    absolute = 2.0 * np.pi * np.arange(cfg.n_headings) / cfg.n_headings
+    grid = np.meshgrid(
         np.asarray(cfg.speeds_m_s, dtype=np.float64),
         np.radians(np.asarray(cfg.flight_path_angles_deg, dtype=np.float64)),
         indexing="ij",
     )
-    velocity = np.stack(
-        [
-            speed * np.cos(gamma) * np.cos(psi),
-            speed * np.cos(gamma) * np.sin(psi),
-            -speed * np.sin(gamma),
-        ],
-        axis=-1,
-    ).reshape(-1, 3)
-    velocity[:, 2] = np.clip(velocity[:, 2], -cfg.max_climb_m_s, cfg.max_descent_m_s)
-    vertical = np.array(
-        [[0.0, 0.0, -cfg.max_climb_m_s], [0.0, 0.0, cfg.max_descent_m_s], [0, 0, 0]]
-    )
-    psi = np.append(psi.ravel(), np.full(3, goal_heading_rad))
-    speed = np.append(speed.ravel(), [cfg.max_climb_m_s, cfg.max_descent_m_s, 0.0])
-    gamma = np.append(gamma.ravel(), [np.pi / 2, -np.pi / 2, 0.0])
-    turn = np.where(np.abs(gamma) < np.pi / 2, np.sin(psi - goal_heading_rad), 0.0)
-    turn[-1] = 0.0
-    return ActionSet(psi, speed, gamma, np.concatenate([velocity, vertical]), turn)
+    speed, gamma = grid[0].ravel(), grid[1].ravel()
+    down = np.clip(-speed * np.sin(gamma), -cfg.max_climb_m_s, cfg.max_descent_m_s)
+    parts = (absolute, speed * np.cos(gamma), down, speed, gamma)
+    for part in parts:
+        part.setflags(write=False)
+    return parts
 
 
 def rollout(

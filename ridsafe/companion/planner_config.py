@@ -142,7 +142,7 @@ class PlannerConfig:
         _positive(
             self, "arrival_radius_m", "approach_radius_m", "stuck_after_s", "stuck_progress_m"
         )
-        _positive(self, "neighbour_max_age_s", "region_margin_m")
+        _positive(self, "neighbour_max_age_s", "region_margin_m", "approach_min_separation_m")
         _positive(
             self, may_be_zero=("region_velocity_std_m_s", "right_turn_bias", "hazard_mean_weight")
         )
@@ -155,6 +155,12 @@ class PlannerConfig:
             raise FieldValueError(
                 "benign_reward_per_s",
                 f"must be <= 0 (longer conflicts cost more), got {self.benign_reward_per_s}",
+            )
+        if self.approach_min_separation_m > self.d_safe_m:
+            raise FieldValueError(
+                "approach_min_separation_m",
+                f"must be <= d_safe_m={self.d_safe_m} (the planner predicts separations only "
+                f"within d_safe), got {self.approach_min_separation_m}",
             )
         for name in ("goal_decay", "benign_decay", "region_decay"):
             value = getattr(self, name)

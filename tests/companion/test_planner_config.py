@@ -49,6 +49,7 @@ def test_n_actions_is_the_action_set_size() -> None:
         ("velocity_lead_s", 20.0, "horizon_s"),
         ("min_altitude_m", 130.0, "max_altitude_m"),
         ("n_samples", 0, ">= 1"),
+        ("approach_min_separation_m", 150.0, "d_safe_m=100.0"),
     ],
 )
 def test_validation_names_the_field(field: str, value: object, says: str) -> None:
