@@ -15,6 +15,7 @@ from __future__ import annotations
 import binascii
 import functools
 import hashlib
+import inspect
 import logging
 import math
 import operator
@@ -22,7 +23,7 @@ import struct
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from ridsafe.common import messages as m
 from ridsafe.common.dialect import ridsafe_v20 as mav
@@ -152,13 +153,33 @@ def _vec(a: float, b: float, c: float) -> m.Vec3:
 
 # --- standard messages ---------------------------------------------------------------------
 
-ToMav = Callable[[Any], Any]
+
+class _Wire(NamedTuple):
+    """A message on its way out: its pymavlink class and that class's constructor arguments
+    (the fields in XML order, MAVLink units). Packed straight into bytes on the hot path
+    (:func:`_payload`); made into a pymavlink object only when asked (:func:`to_mavlink`)."""
+
+    cls: Any
+    args: tuple[Any, ...]
+
+
+def _wire(cls: Any, *args: Any) -> _Wire:
+    return _Wire(cls, args)
+
+
+ToMav = Callable[[Any], _Wire]
 FromMav = Callable[[Any], m.Message]
 
 
-def _heartbeat_to(msg: m.Heartbeat) -> Any:
-    return mav.MAVLink_heartbeat_message(
-        msg.mav_type, msg.autopilot, msg.base_mode, msg.custom_mode, msg.system_status, 3
+def _heartbeat_to(msg: m.Heartbeat) -> _Wire:
+    return _wire(
+        mav.MAVLink_heartbeat_message,
+        msg.mav_type,
+        msg.autopilot,
+        msg.base_mode,
+        msg.custom_mode,
+        msg.system_status,
+        3,
     )
 
 
@@ -166,9 +187,14 @@ def _heartbeat_from(raw: Any) -> m.Heartbeat:
     return m.Heartbeat(raw.type, raw.autopilot, raw.base_mode, raw.custom_mode, raw.system_status)
 
 
-def _command_long_to(msg: m.CommandLong) -> Any:
-    return mav.MAVLink_command_long_message(
-        msg.target_system, msg.target_component, msg.command, msg.confirmation, *msg.params
+def _command_long_to(msg: m.CommandLong) -> _Wire:
+    return _wire(
+        mav.MAVLink_command_long_message,
+        msg.target_system,
+        msg.target_component,
+        msg.command,
+        msg.confirmation,
+        *msg.params,
     )
 
 
@@ -179,8 +205,9 @@ def _command_long_from(raw: Any) -> m.CommandLong:
     )
 
 
-def _command_ack_to(msg: m.CommandAck) -> Any:
-    return mav.MAVLink_command_ack_message(
+def _command_ack_to(msg: m.CommandAck) -> _Wire:
+    return _wire(
+        mav.MAVLink_command_ack_message,
         msg.command,
         msg.result,
         msg.progress,
@@ -201,8 +228,8 @@ def _command_ack_from(raw: Any) -> m.CommandAck:
     )
 
 
-def _set_mode_to(msg: m.SetMode) -> Any:
-    return mav.MAVLink_set_mode_message(msg.target_system, msg.base_mode, msg.custom_mode)
+def _set_mode_to(msg: m.SetMode) -> _Wire:
+    return _wire(mav.MAVLink_set_mode_message, msg.target_system, msg.base_mode, msg.custom_mode)
 
 
 def _set_mode_from(raw: Any) -> m.SetMode:
@@ -213,8 +240,9 @@ def _ms(t_s: float) -> int:
     return round(t_s * 1000.0) & 0xFFFFFFFF
 
 
-def _spt_to(msg: m.SetPositionTargetLocalNed) -> Any:
-    return mav.MAVLink_set_position_target_local_ned_message(
+def _spt_to(msg: m.SetPositionTargetLocalNed) -> _Wire:
+    return _wire(
+        mav.MAVLink_set_position_target_local_ned_message,
         _ms(msg.time_boot_s),
         msg.target_system,
         msg.target_component,
@@ -247,9 +275,10 @@ def _cms(v_m_s: float) -> int:
     return max(-32768, min(32767, round(v_m_s * 100.0)))
 
 
-def _gpi_to(msg: m.GlobalPositionInt) -> Any:
+def _gpi_to(msg: m.GlobalPositionInt) -> _Wire:
     hdg = 65535 if msg.heading_deg is None else round(msg.heading_deg * 100.0) % 36000
-    return mav.MAVLink_global_position_int_message(
+    return _wire(
+        mav.MAVLink_global_position_int_message,
         _ms(msg.time_boot_s),
         _deg_e7(msg.lat_deg),
         _deg_e7(msg.lon_deg),
@@ -274,9 +303,9 @@ def _gpi_from(raw: Any) -> m.GlobalPositionInt:
     )
 
 
-def _lpn_to(msg: m.LocalPositionNed) -> Any:
-    return mav.MAVLink_local_position_ned_message(
-        _ms(msg.time_boot_s), *msg.p_ned_m, *msg.v_ned_m_s
+def _lpn_to(msg: m.LocalPositionNed) -> _Wire:
+    return _wire(
+        mav.MAVLink_local_position_ned_message, _ms(msg.time_boot_s), *msg.p_ned_m, *msg.v_ned_m_s
     )
 
 
@@ -287,9 +316,14 @@ def _lpn_from(raw: Any) -> m.LocalPositionNed:
     )
 
 
-def _attitude_to(msg: m.Attitude) -> Any:
-    return mav.MAVLink_attitude_message(
-        _ms(msg.time_boot_s), msg.roll_rad, msg.pitch_rad, msg.yaw_rad, *msg.rates_frd_rad_s
+def _attitude_to(msg: m.Attitude) -> _Wire:
+    return _wire(
+        mav.MAVLink_attitude_message,
+        _ms(msg.time_boot_s),
+        msg.roll_rad,
+        msg.pitch_rad,
+        msg.yaw_rad,
+        *msg.rates_frd_rad_s,
     )
 
 
@@ -304,10 +338,11 @@ def _attitude_from(raw: Any) -> m.Attitude:
     )
 
 
-def _sys_status_to(msg: m.SysStatus) -> Any:
+def _sys_status_to(msg: m.SysStatus) -> _Wire:
     volt_mv = 65535 if msg.battery_voltage_v is None else round(msg.battery_voltage_v * 1e3)
     remaining = -1 if msg.battery_remaining_pct is None else msg.battery_remaining_pct
-    return mav.MAVLink_sys_status_message(
+    return _wire(
+        mav.MAVLink_sys_status_message,
         msg.sensors_present,
         msg.sensors_enabled,
         msg.sensors_health,
@@ -335,8 +370,9 @@ def _sys_status_from(raw: Any) -> m.SysStatus:
     )
 
 
-def _home_to(msg: m.HomePosition) -> Any:
-    return mav.MAVLink_home_position_message(
+def _home_to(msg: m.HomePosition) -> _Wire:
+    return _wire(
+        mav.MAVLink_home_position_message,
         _deg_e7(msg.lat_deg),
         _deg_e7(msg.lon_deg),
         round(msg.alt_msl_m * 1000.0),
@@ -355,16 +391,20 @@ def _home_from(raw: Any) -> m.HomePosition:
     return m.HomePosition(lat, lon, raw.altitude / 1000.0, _vec(raw.x, raw.y, raw.z))
 
 
-def _system_time_to(msg: m.SystemTime) -> Any:
-    return mav.MAVLink_system_time_message(round(msg.time_unix_s * 1e6), _ms(msg.time_boot_s))
+def _system_time_to(msg: m.SystemTime) -> _Wire:
+    return _wire(
+        mav.MAVLink_system_time_message, round(msg.time_unix_s * 1e6), _ms(msg.time_boot_s)
+    )
 
 
 def _system_time_from(raw: Any) -> m.SystemTime:
     return m.SystemTime(raw.time_unix_usec / 1e6, raw.time_boot_ms / 1000.0)
 
 
-def _statustext_to(msg: m.StatusText) -> Any:
-    return mav.MAVLink_statustext_message(msg.severity, msg.text.encode("ascii", "replace")[:50])
+def _statustext_to(msg: m.StatusText) -> _Wire:
+    return _wire(
+        mav.MAVLink_statustext_message, msg.severity, msg.text.encode("ascii", "replace")[:50]
+    )
 
 
 def _statustext_from(raw: Any) -> m.StatusText:
@@ -375,7 +415,7 @@ def _statustext_from(raw: Any) -> m.StatusText:
 # --- Open Drone ID ---------------------------------------------------------------------------
 
 
-def _odid_location_to(msg: m.OdidLocation) -> Any:
+def _odid_location_to(msg: m.OdidLocation) -> _Wire:
     direction = (
         ODID_UNKNOWN_DIRECTION_CDEG
         if msg.course_deg is None
@@ -392,7 +432,8 @@ def _odid_location_to(msg: m.OdidLocation) -> Any:
         else min(6200, max(-6200, round(msg.speed_vertical_m_s * 100.0)))
     )
     known = msg.lat_deg is not None and msg.lon_deg is not None
-    return mav.MAVLink_open_drone_id_location_message(
+    return _wire(
+        mav.MAVLink_open_drone_id_location_message,
         0,
         0,
         _id20(msg.id_or_mac),
@@ -446,9 +487,15 @@ def _odid_location_from(raw: Any) -> m.OdidLocation:
     )
 
 
-def _odid_basic_id_to(msg: m.OdidBasicId) -> Any:
-    return mav.MAVLink_open_drone_id_basic_id_message(
-        0, 0, _id20(msg.id_or_mac), msg.id_type, msg.ua_type, _id20(msg.uas_id)
+def _odid_basic_id_to(msg: m.OdidBasicId) -> _Wire:
+    return _wire(
+        mav.MAVLink_open_drone_id_basic_id_message,
+        0,
+        0,
+        _id20(msg.id_or_mac),
+        msg.id_type,
+        msg.ua_type,
+        _id20(msg.uas_id),
     )
 
 
@@ -460,8 +507,9 @@ def _opt_latlon(value_e7: int, other_e7: int) -> float | None:
     return None if value_e7 == 0 and other_e7 == 0 else value_e7 / DEG_E7
 
 
-def _odid_system_to(msg: m.OdidSystem) -> Any:
-    return mav.MAVLink_open_drone_id_system_message(
+def _odid_system_to(msg: m.OdidSystem) -> _Wire:
+    return _wire(
+        mav.MAVLink_open_drone_id_system_message,
         0,
         0,
         _id20(msg.id_or_mac),
@@ -502,8 +550,9 @@ def _odid_system_from(raw: Any) -> m.OdidSystem:
     )
 
 
-def _odid_system_update_to(msg: m.OdidSystemUpdate) -> Any:
-    return mav.MAVLink_open_drone_id_system_update_message(
+def _odid_system_update_to(msg: m.OdidSystemUpdate) -> _Wire:
+    return _wire(
+        mav.MAVLink_open_drone_id_system_update_message,
         0,
         0,
         0 if msg.operator_lat_deg is None else _deg_e7(msg.operator_lat_deg),
@@ -522,9 +571,14 @@ def _odid_system_update_from(raw: Any) -> m.OdidSystemUpdate:
     )
 
 
-def _odid_operator_id_to(msg: m.OdidOperatorId) -> Any:
-    return mav.MAVLink_open_drone_id_operator_id_message(
-        0, 0, _id20(msg.id_or_mac), msg.operator_id_type, msg.operator_id.encode("ascii")[:20]
+def _odid_operator_id_to(msg: m.OdidOperatorId) -> _Wire:
+    return _wire(
+        mav.MAVLink_open_drone_id_operator_id_message,
+        0,
+        0,
+        _id20(msg.id_or_mac),
+        msg.operator_id_type,
+        msg.operator_id.encode("ascii")[:20],
     )
 
 
@@ -532,9 +586,14 @@ def _odid_operator_id_from(raw: Any) -> m.OdidOperatorId:
     return m.OdidOperatorId(_bytes(raw.id_or_mac), raw.operator_id_type, _text(raw.operator_id))
 
 
-def _odid_self_id_to(msg: m.OdidSelfId) -> Any:
-    return mav.MAVLink_open_drone_id_self_id_message(
-        0, 0, _id20(msg.id_or_mac), msg.description_type, msg.description.encode("ascii")[:23]
+def _odid_self_id_to(msg: m.OdidSelfId) -> _Wire:
+    return _wire(
+        mav.MAVLink_open_drone_id_self_id_message,
+        0,
+        0,
+        _id20(msg.id_or_mac),
+        msg.description_type,
+        msg.description.encode("ascii")[:23],
     )
 
 
@@ -542,8 +601,10 @@ def _odid_self_id_from(raw: Any) -> m.OdidSelfId:
     return m.OdidSelfId(_bytes(raw.id_or_mac), raw.description_type, _text(raw.description))
 
 
-def _odid_arm_status_to(msg: m.OdidArmStatus) -> Any:
-    return mav.MAVLink_open_drone_id_arm_status_message(msg.status, msg.error.encode("ascii")[:50])
+def _odid_arm_status_to(msg: m.OdidArmStatus) -> _Wire:
+    return _wire(
+        mav.MAVLink_open_drone_id_arm_status_message, msg.status, msg.error.encode("ascii")[:50]
+    )
 
 
 def _odid_arm_status_from(raw: Any) -> m.OdidArmStatus:
@@ -557,11 +618,16 @@ def _text(value: bytes | str) -> str:
 _RAW_ODID_NAMES = ("OPEN_DRONE_ID_AUTHENTICATION", "OPEN_DRONE_ID_MESSAGE_PACK")
 
 
-def _odid_raw_to(msg: m.OdidRaw) -> Any:
+def _odid_raw_to(msg: m.OdidRaw) -> _Wire:
     if msg.name not in _RAW_ODID_NAMES:
         raise WireError(f"OdidRaw carries {msg.name}, expected one of {_RAW_ODID_NAMES}")
     cls = mav.mavlink_map[getattr(mav, "MAVLINK_MSG_ID_" + msg.name)]
-    return cls(**dict(msg.fields))
+    fields = dict(msg.fields)
+    if set(fields) != set(cls.fieldnames):
+        raise WireError(
+            f"OdidRaw {msg.name} has fields {sorted(fields)}, expected {cls.fieldnames}"
+        )
+    return _Wire(cls, tuple(fields[name] for name in cls.fieldnames))
 
 
 def _odid_raw_from(raw: Any) -> m.OdidRaw:
@@ -580,9 +646,13 @@ def _us(t_s: float) -> int:
     return max(0, round(t_s * 1e6))
 
 
-def _rid_rssi_to(msg: m.RidRssi) -> Any:
-    return mav.MAVLink_ridsafe_rid_rssi_message(
-        _us(msg.t_s), msg.rssi_dbm, _id20(msg.id_or_mac), msg.odid_message_type
+def _rid_rssi_to(msg: m.RidRssi) -> _Wire:
+    return _wire(
+        mav.MAVLink_ridsafe_rid_rssi_message,
+        _us(msg.t_s),
+        msg.rssi_dbm,
+        _id20(msg.id_or_mac),
+        msg.odid_message_type,
     )
 
 
@@ -600,11 +670,12 @@ def _uas_id(uas_id: str) -> bytes:
     return raw
 
 
-def _observation_to(msg: m.Observation) -> Any:
+def _observation_to(msg: m.Observation) -> _Wire:
     course = msg.claimed_course_deg
     speed_h = msg.claimed_speed_horizontal_m_s
     speed_v = msg.claimed_speed_vertical_m_s
-    return mav.MAVLink_ridsafe_observation_message(
+    return _wire(
+        mav.MAVLink_ridsafe_observation_message,
         _us(msg.t_s),
         _deg_e7(msg.rx_lat_deg),
         _deg_e7(msg.rx_lon_deg),
@@ -648,8 +719,9 @@ def _observation_from(raw: Any) -> m.Observation:
     )
 
 
-def _region_to(msg: m.UnsafeRegionMsg) -> Any:
-    return mav.MAVLink_ridsafe_unsafe_region_message(
+def _region_to(msg: m.UnsafeRegionMsg) -> _Wire:
+    return _wire(
+        mav.MAVLink_ridsafe_unsafe_region_message,
         _us(msg.t_s),
         _us(msg.valid_until_s),
         _deg_e7(msg.center_lat_deg),
@@ -687,9 +759,15 @@ def _region_from(raw: Any) -> m.UnsafeRegionMsg:
     )
 
 
-def _alert_to(msg: m.SpoofAlert) -> Any:
-    return mav.MAVLink_ridsafe_spoof_alert_message(
-        _us(msg.t_s), msg.statistic, msg.threshold, msg.detector, msg.state, _uas_id(msg.uas_id)
+def _alert_to(msg: m.SpoofAlert) -> _Wire:
+    return _wire(
+        mav.MAVLink_ridsafe_spoof_alert_message,
+        _us(msg.t_s),
+        msg.statistic,
+        msg.threshold,
+        msg.detector,
+        msg.state,
+        _uas_id(msg.uas_id),
     )
 
 
@@ -704,16 +782,16 @@ def _alert_from(raw: Any) -> m.SpoofAlert:
     )
 
 
-def _tick_to(msg: m.LockstepTick) -> Any:
-    return mav.MAVLink_ridsafe_lockstep_tick_message(_us(msg.t_s), msg.tick)
+def _tick_to(msg: m.LockstepTick) -> _Wire:
+    return _wire(mav.MAVLink_ridsafe_lockstep_tick_message, _us(msg.t_s), msg.tick)
 
 
 def _tick_from(raw: Any) -> m.LockstepTick:
     return m.LockstepTick(raw.time_usec / 1e6, raw.tick)
 
 
-def _done_to(msg: m.LockstepDone) -> Any:
-    return mav.MAVLink_ridsafe_lockstep_done_message(_us(msg.t_s), msg.tick)
+def _done_to(msg: m.LockstepDone) -> _Wire:
+    return _wire(mav.MAVLink_ridsafe_lockstep_done_message, _us(msg.t_s), msg.tick)
 
 
 def _done_from(raw: Any) -> m.LockstepDone:
@@ -761,6 +839,11 @@ for _name in _RAW_ODID_NAMES:
 
 def to_mavlink(message: m.Message) -> Any:
     """The pymavlink message object for a domain message (raises WireError if unencodable)."""
+    wire = _to_wire(message)
+    return wire.cls(*wire.args)
+
+
+def _to_wire(message: m.Message) -> _Wire:
     if isinstance(message, m.OdidRaw):
         return _odid_raw_to(message)
     try:
@@ -831,12 +914,14 @@ _HEADER = struct.Struct("<BBBBBBBHB")
 _IFLAG_SIGNED = mav.MAVLINK_IFLAG_SIGNED
 
 
-def _wire_values(raw: Any) -> tuple[Any, ...] | list[Any]:
-    """A pymavlink message's field values in wire order, arrays flattened (what its
-    ``unpacker`` packs); char arrays as bytes."""
-    message_class: Any = type(raw)
-    getter, arrays, chars = _wire_plan(message_class)
-    values = getter(raw)
+def _wire_values(wire: _Wire) -> tuple[Any, ...] | list[Any]:
+    """The values ``wire.cls.unpacker`` packs: the fields in wire order, arrays flattened,
+    char arrays as bytes."""
+    getter, arrays, chars, defaults = _wire_plan(wire.cls)
+    args = wire.args
+    if len(args) < len(defaults):  # extension fields left to their constructor defaults
+        args = args + defaults[len(args) :]
+    values = getter(args)
     if not (arrays or chars):  # scalars only, the common case: one C call
         return values if isinstance(values, tuple) else (values,)
     out = list(values)
@@ -849,19 +934,20 @@ def _wire_values(raw: Any) -> tuple[Any, ...] | list[Any]:
 
 
 @functools.cache
-def _wire_plan(cls: Any) -> tuple[Callable[[Any], Any], tuple[int, ...], tuple[int, ...]]:
-    """(getter of the fields in wire order, indices of arrays, indices of chars) of a
-    message class."""
-    ordered = list(cls.ordered_fieldnames)
-    # array_lengths and fieldtypes are in wire order, like ordered_fieldnames
-    kinds = dict(zip(ordered, zip(cls.array_lengths, cls.fieldtypes, strict=True), strict=True))
-    arrays = tuple(
-        i
-        for i, name in enumerate(ordered)
-        if kinds[name][0] > 0 and not kinds[name][1].startswith("char")
-    )
-    chars = tuple(i for i, name in enumerate(ordered) if kinds[name][1].startswith("char"))
-    return operator.attrgetter(*ordered), arrays, chars
+def _wire_plan(
+    cls: Any,
+) -> tuple[Callable[[Any], Any], tuple[int, ...], tuple[int, ...], tuple[Any, ...]]:
+    """(getter of the wire-ordered fields from the constructor arguments, wire indices of
+    arrays, wire indices of char arrays, the constructor's defaults) of a message class.
+    ``cls.orders[i]`` is the wire position of XML field i; ``array_lengths`` is in wire
+    order, ``fieldtypes`` in XML order."""
+    xml_of_wire = sorted(range(len(cls.orders)), key=lambda i: cls.orders[i])
+    is_char = [cls.fieldtypes[i].startswith("char") for i in xml_of_wire]
+    arrays = tuple(w for w, n in enumerate(cls.array_lengths) if n > 0 and not is_char[w])
+    chars = tuple(w for w, char in enumerate(is_char) if char)
+    parameters = list(inspect.signature(cls.__init__).parameters.values())[1:]  # after self
+    defaults = tuple(p.default for p in parameters)
+    return operator.itemgetter(*xml_of_wire), arrays, chars, defaults
 
 
 class _RawView:
@@ -944,13 +1030,32 @@ def _payload(message: m.Message) -> tuple[int, int, bytes]:
     cached = _payloads.get(id(message))
     if cached is not None and cached[0] is message:
         return cached[1], cached[2], cached[3]
-    raw = to_mavlink(message)
-    payload = raw.unpacker.pack(*_wire_values(raw))
-    entry = (message, type(raw).id, raw.crc_extra, payload)  # STATUSTEXT has an "id" field
+    wire = _to_wire(message)
+    payload = wire.cls.unpacker.pack(*_wire_values(wire))
+    entry = (message, wire.cls.id, wire.cls.crc_extra, payload)
     if len(_payloads) >= _PAYLOAD_CACHE_SIZE:
         _payloads.clear()
     _payloads[id(message)] = entry
     return entry[1], entry[2], entry[3]
+
+
+# Domain messages of the Remote ID payloads decoded last, by message id + payload bytes: a
+# broadcast reaches every receiver with the same bytes, and decoding is a pure function of
+# them (the messages are immutable), so the receivers in one process share one decode.
+_DECODED_CACHE_SIZE = 1024
+_SHARED_IDS = frozenset(
+    getattr(mav, "MAVLINK_MSG_ID_" + name)
+    for name in (
+        "OPEN_DRONE_ID_BASIC_ID",
+        "OPEN_DRONE_ID_LOCATION",
+        "OPEN_DRONE_ID_AUTHENTICATION",
+        "OPEN_DRONE_ID_SELF_ID",
+        "OPEN_DRONE_ID_SYSTEM",
+        "OPEN_DRONE_ID_OPERATOR_ID",
+        "OPEN_DRONE_ID_MESSAGE_PACK",
+    )
+)
+_decoded: dict[bytes, m.Message] = {}
 
 
 # --- one end of a link ----------------------------------------------------------------------
@@ -1090,12 +1195,18 @@ class MavlinkLink:
             packet, signed, src_system, src_component
         ):
             return len(packet), None
-        raw = layout.view(packet[_HEADER_LEN:crc_end])
-        try:
-            message = from_mavlink(raw)
-        except (WireError, ValueError, TypeError, UnicodeDecodeError) as exc:
-            self._drop("invalid_value", f"{layout.name} from {src_system}: {exc}")
-            return len(packet), None
+        key = packet[7:crc_end]  # message id and payload
+        message = _decoded.get(key)
+        if message is None:
+            try:
+                message = from_mavlink(layout.view(packet[_HEADER_LEN:crc_end]))
+            except (WireError, ValueError, TypeError, UnicodeDecodeError) as exc:
+                self._drop("invalid_value", f"{layout.name} from {src_system}: {exc}")
+                return len(packet), None
+            if msg_id in _SHARED_IDS and message is not None:
+                if len(_decoded) >= _DECODED_CACHE_SIZE:
+                    _decoded.clear()
+                _decoded[key] = message
         if message is None:
             self.counters.unhandled += 1
             logger.debug("ignoring %s from %d", layout.name, src_system)

@@ -164,29 +164,57 @@ def test_odid_location_round_trip(
     assert (got.timestamp_s is None) == (ts is None)
 
 
+# One of every domain message the codec knows (the OdidRaw pack comes from a real encoding).
+EVERY_MESSAGE: list[m.Message] = [
+    m.Heartbeat(14, 3, 217, 4, 4),
+    m.CommandLong(1, 1, 22, 0, (0, 0, 0, math.nan, 0, 0, 30)),
+    m.CommandAck(22, 4, 255, 190),
+    m.SetMode(1, 1, 4),
+    m.LocalPositionNed(1.0, (1.0, 2.0, -3.0), (0.5, 0.25, 0.0)),
+    m.Attitude(1.0, 0.5, -0.25, 1.5, (0.0, 0.125, 0.5)),
+    m.SysStatus(1, 1, 1, 10.0, 16.8, 90),
+    m.HomePosition(47.0, 8.0, 400.0, (0.0, 0.0, 0.0)),
+    m.SystemTime(1_700_000_000.0, 2.0),
+    m.StatusText(4, "Arm: Need GUIDED"),
+    m.OdidBasicId(b"SN1", 1, 2, b"1581F4ABC"),
+    m.OdidSystem(b"", 1, 0, 47.0, 8.0, 1, 0, None, None, 0, 0, 400.0, 12345),
+    m.OdidSystemUpdate(47.0, 8.0, 400.0, 12346),
+    m.OdidOperatorId(b"", 0, "OPERATOR1"),
+    m.OdidSelfId(b"", 0, "delivery"),
+    m.OdidArmStatus(0, ""),
+    m.RidRssi(12.5, -71.25, b"SN1", 1),
+    m.SpoofAlert(5.0, 10.0, 6.5, 1, 1, "SPOOF1"),
+    m.LockstepTick(0.02, 2),
+    m.LockstepDone(0.02, 2),
+    m.GlobalPositionInt(1.5, 47.0, 8.0, 400.0, 30.0, (1.0, -0.5, 0.25), 123.45),
+    m.SetPositionTargetLocalNed(
+        1.5, 3, 1, m.MavFrame.LOCAL_NED, 3520, (1.0, 2.0, -3.0), (0.5, 0.0, 0.0), (0, 0, 0), 0, 0
+    ),
+    m.OdidLocation(
+        b"SN1", 2, 90.0, 7.25, -0.5, 47.0, 8.0, None, 430.0, 0, 30.0, 1, 2, 3, 4, 12.5, 5
+    ),
+    m.Observation(
+        12.5, 47.0, 8.0, 430.0, 47.001, 8.001, 440.0, 12.5, -71.25, 90.0, 7.25, -0.5, "S"
+    ),
+    m.UnsafeRegionMsg(
+        1.0, 2.0, 47.0, 8.0, 60.0, (1, 0, 0, 1, 0, 1), (1, 2, 3), 7.75, 0.0625, 3, 0, "S"
+    ),
+    m.OdidRaw(
+        "OPEN_DRONE_ID_MESSAGE_PACK",
+        (
+            ("target_system", 0),
+            ("target_component", 0),
+            ("id_or_mac", tuple(range(1, 21))),
+            ("single_message_size", 25),
+            ("msg_pack_size", 2),
+            ("messages", tuple(i % 256 for i in range(225))),
+        ),
+    ),
+]
+
+
 def test_every_domain_message_survives_the_wire() -> None:
-    messages: list[m.Message] = [
-        m.Heartbeat(14, 3, 217, 4, 4),
-        m.CommandLong(1, 1, 22, 0, (0, 0, 0, math.nan, 0, 0, 30)),
-        m.CommandAck(22, 4, 255, 190),
-        m.SetMode(1, 1, 4),
-        m.LocalPositionNed(1.0, (1.0, 2.0, -3.0), (0.5, 0.25, 0.0)),
-        m.Attitude(1.0, 0.5, -0.25, 1.5, (0.0, 0.125, 0.5)),
-        m.SysStatus(1, 1, 1, 10.0, 16.8, 90),
-        m.HomePosition(47.0, 8.0, 400.0, (0.0, 0.0, 0.0)),
-        m.SystemTime(1_700_000_000.0, 2.0),
-        m.StatusText(4, "Arm: Need GUIDED"),
-        m.OdidBasicId(b"SN1", 1, 2, b"1581F4ABC"),
-        m.OdidSystem(b"", 1, 0, 47.0, 8.0, 1, 0, None, None, 0, 0, 400.0, 12345),
-        m.OdidSystemUpdate(47.0, 8.0, 400.0, 12346),
-        m.OdidOperatorId(b"", 0, "OPERATOR1"),
-        m.OdidSelfId(b"", 0, "delivery"),
-        m.OdidArmStatus(0, ""),
-        m.RidRssi(12.5, -71.25, b"SN1", 1),
-        m.SpoofAlert(5.0, 10.0, 6.5, 1, 1, "SPOOF1"),
-        m.LockstepTick(0.02, 2),
-        m.LockstepDone(0.02, 2),
-    ]
+    messages = EVERY_MESSAGE
     for sent in messages:
         got = _round_trip(sent)
         assert type(got) is type(sent)
@@ -334,9 +362,7 @@ def test_x25_crc_matches_pymavlink() -> None:
 
 def test_packets_are_byte_identical_to_pymavlinks_signed_and_unsigned() -> None:
     messages: list[m.Message] = [
-        m.Heartbeat(14, 3, 217, 4, 4),
-        m.StatusText(4, "Arm: Need GUIDED"),  # its "id" field must not shadow the message id
-        m.OdidBasicId(b"SN1", 1, 2, b"1581F4ABC"),
+        *EVERY_MESSAGE,  # StatusText: its "id" field must not shadow the message id
         m.HomePosition(47.0, 8.0, 400.0, (1.0, 2.0, 3.0)),
         m.UnsafeRegionMsg(
             1.0, 2.0, 47.0, 8.0, 60.0, (1, 0, 0, 1, 0, 1), (1, 2, 3), 7.8, 0.05, 3, 0, "S"
