@@ -23,20 +23,26 @@ One cycle (Bar-Shalom, Li, Kirubarajan 2001, sec. 11.6.6), with Pi over the inte
 Every array carries a leading batch axis of H independent IMMs (the hypotheses of a
 Gaussian sum share one model): x (H, n), P (H, n, n), mu (H, M). A linear Kalman update for
 fixes (paper eq. (3), H = [I3 0]) is here too, Joseph form, with log N(nu; 0, S).
+
+``predict`` and ``merge`` run compiled kernels (``imm_kernels.py``; they run every cycle for
+every track); ``mix``, ``predict_reference`` and ``merge_reference`` are the same equations
+in plain numpy, kept as the tests' oracle.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ridsafe.gcs.motion_models import MotionModel, convert
+from ridsafe.gcs import imm_kernels
+from ridsafe.gcs.motion_models import ACC, MotionModel, conversion_rows, convert
 
 FloatArray = NDArray[np.float64]
+IndexArray = NDArray[np.int64]
 
 __all__ = [
     "Gaussian",
@@ -46,8 +52,10 @@ __all__ = [
     "initial_state",
     "kalman_update",
     "merge",
+    "merge_reference",
     "mix",
     "predict",
+    "predict_reference",
     "symmetrize",
     "transition_over",
     "update",
@@ -85,24 +93,57 @@ class ImmModel:
     lift_accel_var: float | FloatArray  # one value, or (3,) per axis E, N, U
     n_extra: int = 0
     extra_q: FloatArray | None = None  # (n_extra,)
+    _matrices: dict[tuple[int, float], tuple[FloatArray, FloatArray]] = field(
+        default_factory=dict, compare=False, repr=False
+    )
+    _conversions: dict[tuple[int, ...], tuple[IndexArray, FloatArray]] = field(
+        default_factory=dict, compare=False, repr=False
+    )
 
     def dim(self, mode: int) -> int:
         return self.models[mode].kin_dim + self.n_extra
 
     def matrices(self, mode: int, dt_s: float) -> tuple[FloatArray, FloatArray]:
-        """(F, Q) of a mode's whole state (kinematics, then the extra random walks)."""
+        """(F, Q) of a mode's whole state (kinematics, then the extra random walks), cached
+        per interval (treat them as read-only)."""
+        key = (mode, round(dt_s, 9))
+        hit = self._matrices.get(key)
+        if hit is not None:
+            return hit
         model = self.models[mode]
         k, n = model.kin_dim, self.dim(mode)
         F_k, Q_k = model.matrices(dt_s)
-        if not self.n_extra:
-            return F_k, Q_k
         F = np.eye(n)
         Q = np.zeros((n, n))
         F[:k, :k] = F_k
         Q[:k, :k] = Q_k
-        if self.extra_q is not None:
+        if self.n_extra and self.extra_q is not None:
             Q[k:, k:] = np.diag(self.extra_q * dt_s)
+        if len(self._matrices) > 4096:
+            self._matrices.clear()
+        self._matrices[key] = (F, Q)
         return F, Q
+
+    def conversions(self, to_orders: tuple[int, ...]) -> tuple[IndexArray, FloatArray]:
+        """Every mode's conversion into each kinematic order of ``to_orders`` as index maps
+        (``motion_models.conversion_rows``, padded with -1): src (T, M, n_max), and the
+        lifted accelerations' variances lift_var (T, n_max), for ``imm_kernels``."""
+        hit = self._conversions.get(to_orders)
+        if hit is not None:
+            return hit
+        dims = [3 * o + self.n_extra for o in (*to_orders, *(m.order for m in self.models))]
+        n_max = max(dims)
+        src = np.full((len(to_orders), len(self.models), n_max), -1, dtype=np.int64)
+        lift_var = np.zeros((len(to_orders), n_max))
+        accel = np.broadcast_to(np.asarray(self.lift_accel_var, dtype=np.float64), (3,))
+        for t, order in enumerate(to_orders):
+            for i, model in enumerate(self.models):
+                rows = conversion_rows(model.order, order, self.n_extra)
+                src[t, i, : rows.shape[0]] = rows
+            if order == 3:
+                lift_var[t, ACC] = accel
+        self._conversions[to_orders] = (src, lift_var)
+        return src, lift_var
 
 
 @dataclass(frozen=True, eq=False)
@@ -191,7 +232,38 @@ def mix(
 
 
 def predict(state: ImmState, model: ImmModel, t_s: float) -> ImmState:
-    """Steps 1-4 to time ``t_s`` (returns ``state`` itself when ``t_s`` is not later)."""
+    """Steps 1-4 to time ``t_s`` (returns ``state`` itself when ``t_s`` is not later), by the
+    compiled kernel (``imm_kernels.predict_batch``; :func:`predict_reference` in numpy)."""
+    dt = t_s - state.t_s
+    if dt <= 0.0:
+        return state
+    Pi = transition_over(model.transition, dt, model.dt_ref_s)
+    orders = tuple(m.order for m in model.models)
+    src, lift_var = model.conversions(orders)
+    FQ = [model.matrices(j, dt) for j in range(len(orders))]
+    H = state.size
+    xs = tuple(np.empty((H, model.dim(j))) for j in range(len(orders)))
+    Ps = tuple(np.empty((H, model.dim(j), model.dim(j))) for j in range(len(orders)))
+    mu = np.empty_like(state.mu)
+    imm_kernels.predict_batch(
+        tuple(np.ascontiguousarray(g.x) for g in state.modes),
+        tuple(np.ascontiguousarray(g.P) for g in state.modes),
+        np.ascontiguousarray(state.mu),
+        np.ascontiguousarray(Pi),
+        src,
+        lift_var,
+        tuple(F for F, _ in FQ),
+        tuple(Q for _, Q in FQ),
+        xs,
+        Ps,
+        mu,
+    )
+    modes = tuple(Gaussian(x, P) for x, P in zip(xs, Ps, strict=True))
+    return ImmState(modes, mu, t_s)
+
+
+def predict_reference(state: ImmState, model: ImmModel, t_s: float) -> ImmState:
+    """Numpy reference of :func:`predict`: ``mix``, then every mode's F and Q."""
     dt = t_s - state.t_s
     if dt <= 0.0:
         return state
@@ -229,7 +301,26 @@ def update(
 
 def merge(state: ImmState, model: ImmModel, order: int = 2) -> Gaussian:
     """Step 7 (paper eq. (6), (7)) per batch item: the fused estimate in the space of
-    kinematic ``order`` (default CV: position, velocity, then the extra states)."""
+    kinematic ``order`` (default CV: position, velocity, then the extra states); by the
+    compiled kernel (``imm_kernels.merge_batch``; :func:`merge_reference` in numpy)."""
+    src, lift_var = model.conversions((order,))
+    n = 3 * order + model.n_extra
+    x = np.empty((state.size, n))
+    P = np.empty((state.size, n, n))
+    imm_kernels.merge_batch(
+        tuple(np.ascontiguousarray(g.x) for g in state.modes),
+        tuple(np.ascontiguousarray(g.P) for g in state.modes),
+        np.ascontiguousarray(state.mu),
+        src[0],
+        lift_var[0],
+        x,
+        P,
+    )
+    return Gaussian(x, P)
+
+
+def merge_reference(state: ImmState, model: ImmModel, order: int = 2) -> Gaussian:
+    """Numpy reference of :func:`merge`."""
     conv = [
         convert(g.x, g.P, model.models[j].order, order, model.lift_accel_var)
         for j, g in enumerate(state.modes)

@@ -51,6 +51,7 @@ __all__ = [
     "POS",
     "VEL",
     "MotionModel",
+    "conversion_rows",
     "convert",
     "paper_process_noise",
     "transition_matrix",
@@ -177,6 +178,19 @@ def convert(
     P_out[..., place[:, None], place] = P
     P_out[..., added, added] = np.broadcast_to(np.asarray(accel_var, dtype=np.float64), (3,))
     return x_out, P_out
+
+
+@functools.cache
+def conversion_rows(from_order: int, to_order: int, n_extra: int) -> NDArray[np.intp]:
+    """``convert`` as an index map: row r of the converted state is row ``out[r]`` of the
+    source, or a lifted acceleration (``out[r] = -1``; zero mean, ``accel_var``, uncorrelated).
+    """
+    keep, place, _ = _index_maps(from_order, to_order, n_extra)
+    if to_order <= from_order:
+        return keep
+    out = np.full(3 * to_order + n_extra, -1, dtype=np.intp)
+    out[place] = np.arange(place.shape[0])
+    return out
 
 
 @functools.cache
