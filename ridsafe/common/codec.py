@@ -898,6 +898,7 @@ def _plain(value: Any) -> object:
 _STX_V1 = 0xFE
 _STX_V2 = 0xFD
 _HEADER_LEN = 10
+_NEW_STREAM_SLACK = 6000 * 1000  # signing timestamp units (10 us): one minute
 _CRC_LEN = 2
 _SIGNATURE_LEN = 13
 _BIT_REVERSED = bytes(int(f"{i:08b}"[::-1], 2) for i in range(256))
@@ -1228,9 +1229,25 @@ class MavlinkLink:
         if expected != packet[-6:]:
             self._drop("rejected_signature", f"forged signature from {system}/{component}")
             return False
-        if not self._mav.check_signature(bytearray(packet), system, component):
-            self._drop("rejected_signature", f"bad or replayed signature from {system}")
+        return self._fresh(packet, system, component)
+
+    def _fresh(self, packet: bytes, system: int, component: int) -> bool:
+        """The MAVLink 2 signing timestamp rule (pymavlink's ``check_signature``, whose hash
+        check has been done): per (link id, system, component) stream the timestamp must
+        grow; a new stream may be at most a minute behind this link's clock, which then
+        moves up to the newest timestamp accepted."""
+        state = self._mav.signing
+        timestamp = int.from_bytes(packet[-12:-6], "little")
+        stream = (packet[-13], system, component)
+        last = state.stream_timestamps.get(stream)
+        if last is not None and timestamp <= last:
+            self._drop("rejected_signature", f"replayed signature from {system}/{component}")
             return False
+        if last is None and timestamp + _NEW_STREAM_SLACK < state.timestamp:
+            self._drop("rejected_signature", f"stale new stream from {system}/{component}")
+            return False
+        state.stream_timestamps[stream] = timestamp
+        state.timestamp = max(state.timestamp, timestamp)
         return True
 
     def _drop(self, kind: str, reason: str) -> None:

@@ -81,10 +81,15 @@ class TelemetrySchedule:
     interval_s: dict[int, float] = field(init=False)
     next_due_s: dict[int, float] = field(init=False)
     requested: set[int] = field(default_factory=set)
+    earliest_s: float = field(init=False, default=0.0)  # no stream is due before this
 
     def __post_init__(self) -> None:
         self.interval_s = {k: _interval(hz) for k, hz in self.defaults_hz.items()}
         self.next_due_s = dict.fromkeys(self.defaults_hz, 0.0)
+
+    def _update_earliest(self) -> None:
+        due = [t for k, t in self.next_due_s.items() if self.interval_s[k] != math.inf]
+        self.earliest_s = min(due, default=math.inf)
 
     def set_interval(self, msg_id: int, interval_us: float) -> bool:
         """MAV_CMD_SET_MESSAGE_INTERVAL: -1 off, 0 default, else the interval in us."""
@@ -97,6 +102,7 @@ class TelemetrySchedule:
         else:
             self.interval_s[msg_id] = max(interval_us * 1e-6, 0.0025)
             self.next_due_s[msg_id] = 0.0
+        self._update_earliest()
         return True
 
     def request_once(self, msg_id: int) -> bool:
@@ -111,6 +117,8 @@ class TelemetrySchedule:
         A stream keeps its phase and skips slots it missed instead of bursting; a message
         asked for with ``request_once`` is sent in addition, without moving its stream.
         """
+        if now_s < self.earliest_s - 1e-9 and not self.requested:
+            return []
         out = []
         for msg_id, interval in self.interval_s.items():
             periodic = interval != math.inf and now_s >= self.next_due_s[msg_id] - 1e-9
@@ -120,6 +128,7 @@ class TelemetrySchedule:
             if periodic or msg_id in self.requested:
                 out.append(msg_id)
         self.requested.clear()
+        self._update_earliest()
         return out
 
 

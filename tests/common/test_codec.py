@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import random
 import struct
 from pathlib import Path
 
@@ -321,6 +322,30 @@ def test_replayed_signed_packet_is_rejected() -> None:
     assert len(rx.feed(packet)) == 1
     assert rx.feed(packet) == []
     assert rx.counters.rejected_signature == 1
+
+
+def test_signing_timestamps_are_judged_as_pymavlink_judges_them() -> None:
+    """Replays, streams that go back in time and new streams more than a minute behind the
+    receiver's clock are refused exactly when pymavlink's ``check_signature`` refuses them."""
+    rng = random.Random(7)
+    start = 10**9
+    ours = codec.MavlinkLink(1, 1, codec.SigningConfig(KEY, initial_timestamp=start))
+    reference = mav.MAVLink(None, srcSystem=1, srcComponent=1)
+    reference.signing.secret_key = KEY
+    reference.signing.timestamp = start
+    clocks: dict[tuple[int, int], int] = {}  # per stream: newest timestamp sent
+    verdicts = []
+    for _ in range(400):
+        system, link_id = rng.choice([(7, 0), (7, 1), (8, 0), (9, 2), (9, 3), (10, 0)])
+        first = start + rng.randint(-7_000_000, 1_000_000)  # a new stream: up to 70 s behind
+        timestamp = clocks.get((system, link_id), first) + rng.randint(-3, 10)
+        clocks[(system, link_id)] = max(timestamp, clocks.get((system, link_id), timestamp))
+        sender = codec.MavlinkLink(system, 191, codec.SigningConfig(KEY, timestamp, link_id))
+        packet = sender.pack(m.LockstepTick(0.0, 1))
+        accepted = len(ours.feed(packet)) == 1
+        assert accepted == reference.check_signature(bytearray(packet), system, 191)
+        verdicts.append(accepted)
+    assert 50 < sum(verdicts) < 350  # both kinds of verdict were exercised
 
 
 def test_signing_key_file_hex_and_passphrase(tmp_path: Path) -> None:
