@@ -46,7 +46,7 @@ from numpy.typing import NDArray
 from scipy.special import chdtrc, ndtri
 
 from ridsafe.common.messages import RidsafeDetector
-from ridsafe.gcs.detection_kernels import observe_kernel
+from ridsafe.gcs.detection_kernels import observe_kernel, observe_params
 from ridsafe.gcs.multilateration import DB_PER_LN
 from ridsafe.gcs.pipeline_api import DetectorResult, Transmission
 from ridsafe.gcs.pipeline_config import DetectionConfig
@@ -136,47 +136,45 @@ def offset_score_test(s: FloatArray) -> tuple[FloatArray, NDArray[np.int64], Flo
 
 def surprisal(statistic: float, dof: int) -> float:
     """-log10 P(chi2_dof > statistic), capped at 300."""
-    if dof <= 0:
-        return 0.0
-    p = float(chdtrc(dof, statistic))
-    return _MAX_SURPRISAL if p <= 0.0 else min(-math.log10(p), _MAX_SURPRISAL)
+    return _surprisal(float(chdtrc(dof, statistic)), dof) if dof > 0 else 0.0
 
 
 def probit(statistic: float, dof: int) -> float:
     """Phi^-1(1 - p), p = P(chi2_dof > statistic): N(0, 1) under H0."""
+    return _probit(float(chdtrc(dof, statistic)), dof) if dof > 0 else 0.0
+
+
+def _surprisal(p_value: float, dof: int) -> float:
+    """``surprisal`` from the p-value (chdtrc over several tests is one call)."""
     if dof <= 0:
         return 0.0
-    p = max(float(chdtrc(dof, statistic)), 1e-300)
-    return float(-ndtri(p))
+    p = float(p_value)
+    return _MAX_SURPRISAL if p <= 0.0 else min(-math.log10(p), _MAX_SURPRISAL)
+
+
+def _probit(p_value: float, dof: int) -> float:
+    """``probit`` from the p-value."""
+    if dof <= 0:
+        return 0.0
+    return float(-ndtri(max(float(p_value), 1e-300)))
 
 
 class PairNis:
-    """The paper's per-(receiver, transmitter) scalar Kalman filters for one transmitter."""
+    """The paper's per-(receiver, transmitter) scalar Kalman filters for one transmitter, one
+    slot per MAVLink system id (0..255; 4 kB per transmitter)."""
+
+    SLOTS = 256
 
     def __init__(self, cfg: DetectionConfig) -> None:
         self.cfg = cfg
-        self._slot_of = np.full(256, -1, dtype=np.int64)  # MAVLink system ids are 0..255
-        self._n = 0
-        self.x = np.zeros(16)  # power estimate per receiver slot (dBm)
-        self.P = np.zeros(16)  # its variance (dB^2)
-        self.started = np.zeros(16, dtype=bool)
+        self.x = np.zeros(self.SLOTS)  # power estimate per receiver (dBm)
+        self.P = np.zeros(self.SLOTS)  # its variance (dB^2)
+        self.started = np.zeros(self.SLOTS, dtype=bool)
 
-    def slots(self, rx_sysid: NDArray[np.int64]) -> NDArray[np.int64]:
-        """Each receiver's slot in ``x``, ``P``, ``started`` (new receivers get one)."""
-        ids = np.asarray(rx_sysid, dtype=np.int64) & 0xFF
-        slots = self._slot_of[ids]
-        new = np.flatnonzero(slots < 0)
-        for i in new:  # first reception from this receiver
-            if self._slot_of[ids[i]] < 0:
-                self._slot_of[ids[i]] = self._n
-                self._n += 1
-            slots[i] = self._slot_of[ids[i]]
-        if self._n > self.x.shape[0]:
-            grow = self.x.shape[0]
-            self.x = np.r_[self.x, np.zeros(grow)]
-            self.P = np.r_[self.P, np.zeros(grow)]
-            self.started = np.r_[self.started, np.zeros(grow, dtype=bool)]
-        out: NDArray[np.int64] = slots
+    @staticmethod
+    def slots(rx_sysid: NDArray[np.int64]) -> NDArray[np.int64]:
+        """Each receiver's slot in ``x``, ``P``, ``started``: its system id."""
+        out: NDArray[np.int64] = np.asarray(rx_sysid, dtype=np.int64) & 0xFF
         return out
 
     def step(self, rx_sysid: NDArray[np.int64], ip: ImpliedPowers) -> float:
@@ -215,7 +213,15 @@ class TransmitterMonitor:
         self._ring = np.zeros((self.RING, ROW))
         self._t = np.full(self.RING, -np.inf)
         self._thr = -math.log10(cfg.p_false_alarm)
-        self._pos2 = (DB_PER_LN * cfg.position_sigma_m) ** 2
+        self._params = observe_params(
+            cfg.window_s,
+            sigma_db**2,
+            (DB_PER_LN * cfg.position_sigma_m) ** 2,
+            cfg.loss_at_1m_db,
+            cfg.nis_q_db2,
+            cfg.nis_r_db2,
+            cfg.nis_p0_db2,
+        )
         self.last_offset_enu_m = np.zeros(3)  # the MLAT window's delta^ (claimed - estimated)
 
     def observe(self, tx: Transmission) -> tuple[DetectorResult, ...]:
@@ -227,36 +233,30 @@ class TransmitterMonitor:
             ip = implied_powers(tx.claimed_p_enu_m, tx.rx_p_enu_m, tx.rssi_dbm, self.sigma_db, cfg)
             self._y_ref = float(np.median(ip.y))
         pairs = self.pairs
-        slots = pairs.slots(tx.rx_sysid)
         out = observe_kernel(
             np.ascontiguousarray(tx.claimed_p_enu_m),
             np.ascontiguousarray(tx.rx_p_enu_m),
             np.ascontiguousarray(tx.rssi_dbm),
-            slots,
+            np.ascontiguousarray(tx.rx_sysid, dtype=np.int64),
             pairs.x,
             pairs.P,
             pairs.started,
             self._ring,
             self._t,
             tx.t_s,
-            cfg.window_s,
             self._y_ref,
-            self.sigma_db**2,
-            self._pos2,
-            cfg.loss_at_1m_db,
-            cfg.nis_q_db2,
-            cfg.nis_r_db2,
-            cfg.nis_p0_db2,
+            self._params,
         )
         nis, spread, dof, wspread, wdof, one, rank_one, win, rank_win, delta = out
         self.last_offset_enu_m = delta
-        self.cusum = max(0.0, self.cusum + probit(one, rank_one) - cfg.cusum_drift)
+        p = chdtrc(np.array([dof, wdof, rank_win, rank_one]), np.array([spread, wspread, win, one]))
+        self.cusum = max(0.0, self.cusum + _probit(p[3], rank_one) - cfg.cusum_drift)
         return (
             self._result(RidsafeDetector.NIS, nis, cfg.nis_threshold),
-            self._result(RidsafeDetector.POWER_SPREAD, surprisal(spread, dof), self._thr),
-            self._result(RidsafeDetector.NIS_WINDOW, surprisal(wspread, wdof), self._thr),
+            self._result(RidsafeDetector.POWER_SPREAD, _surprisal(p[0], dof), self._thr),
+            self._result(RidsafeDetector.NIS_WINDOW, _surprisal(p[1], wdof), self._thr),
             self._result(RidsafeDetector.CUSUM, self.cusum, cfg.cusum_threshold),
-            self._result(RidsafeDetector.MLAT, surprisal(win, rank_win), self._thr),
+            self._result(RidsafeDetector.MLAT, _surprisal(p[2], rank_win), self._thr),
         )
 
     def _result(self, det: RidsafeDetector, stat: float, thr: float) -> DetectorResult:

@@ -2,8 +2,10 @@
 
 Same equations as the numpy functions there (``implied_powers``, ``sufficient_statistics``,
 ``spread_test``, ``offset_score_test``, ``PairNis.step``), which the tests compare against; one
-call per transmission instead of ~60 numpy calls. After editing, delete
-``ridsafe/gcs/__pycache__/*.nb[ci]`` (numba's cache does not track other modules).
+call per transmission instead of ~60 numpy calls. Also the pipeline's check that a
+transmission's values are finite (``all_finite``: one call instead of eight numpy calls) and
+the track-start grid's costs. After editing, delete ``ridsafe/gcs/__pycache__/*.nb[ci]``
+(numba's cache does not track other modules).
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from numpy.typing import NDArray
 FloatArray = NDArray[np.float64]
 _F = TypeVar("_F", bound=Callable[..., Any])
 
-__all__ = ["ROW", "grid_costs", "observe_kernel", "score_from_sums"]
+__all__ = ["ROW", "all_finite", "grid_costs", "observe_kernel", "observe_params", "score_from_sums"]
 
 ROW = 19  # n, sw, swy, swyy, swg (3), swgy (3), swgg (9)
 DB_PER_LN = 20.0 / math.log(10.0)
@@ -105,37 +107,52 @@ def _tx_row(
     return row
 
 
-@_jit
-def observe_kernel(
-    claimed: FloatArray,
-    rx: FloatArray,
-    rssi: FloatArray,
-    slots: NDArray[np.int64],
-    pair_x: FloatArray,
-    pair_P: FloatArray,
-    pair_started: NDArray[np.bool_],
-    ring: FloatArray,
-    ring_t: FloatArray,
-    t_s: float,
+#: Layout of ``observe_kernel``'s ``params`` (``observe_params``).
+P_WINDOW_S, P_S2, P_POS2, P_LOSS, P_NIS_Q, P_NIS_R, P_NIS_P0 = range(7)
+
+
+def observe_params(
     window_s: float,
-    y_ref: float,
     s2: float,
     pos2: float,
     loss: float,
     nis_q: float,
     nis_r: float,
     nis_p0: float,
+) -> FloatArray:
+    """The constants of ``observe_kernel`` packed once per transmitter (one argument to
+    pass instead of seven)."""
+    return np.array([window_s, s2, pos2, loss, nis_q, nis_r, nis_p0], dtype=np.float64)
+
+
+@_jit
+def observe_kernel(
+    claimed: FloatArray,
+    rx: FloatArray,
+    rssi: FloatArray,
+    rx_sysid: NDArray[np.int64],
+    pair_x: FloatArray,
+    pair_P: FloatArray,
+    pair_started: NDArray[np.bool_],
+    ring: FloatArray,
+    ring_t: FloatArray,
+    t_s: float,
+    y_ref: float,
+    params: FloatArray,
 ) -> tuple[float, float, int, float, int, float, int, float, int, FloatArray]:
     """One transmission: (max pair NIS, spread T, dof, window spread T, dof, single-tx offset
-    T, rank, window offset T, rank, window delta^). Updates the pair filters and the ring
-    (the oldest slot is replaced) in place. ``pos2`` = (20/ln10 sigma_pos)^2."""
+    T, rank, window offset T, rank, window delta^). Updates the pair filters (one slot per
+    MAVLink system id, ``rx_sysid & 0xFF``) and the ring (the oldest slot is replaced) in
+    place. ``params`` from ``observe_params``; its ``pos2`` = (20/ln10 sigma_pos)^2."""
+    window_s, s2, pos2 = params[P_WINDOW_S], params[P_S2], params[P_POS2]
+    nis_q, nis_r, nis_p0 = params[P_NIS_Q], params[P_NIS_R], params[P_NIS_P0]
     k = rx.shape[0]
     y = np.empty(k)
     d = np.empty(k)
-    row = _tx_row(claimed, rx, rssi, y_ref, s2, pos2, loss, y, d)
+    row = _tx_row(claimed, rx, rssi, y_ref, s2, pos2, params[P_LOSS], y, d)
     nis_max = 0.0
     for i in range(k):
-        j = slots[i]
+        j = rx_sysid[i] & 0xFF
         if pair_started[j]:
             P = pair_P[j] + nis_q
             S = P + nis_r + pos2 / (d[i] * d[i])
@@ -158,6 +175,17 @@ def observe_kernel(
     spread, dof, one, rank_one, _ = score_from_sums(row)
     wspread, wdof, win, rank_win, delta = score_from_sums(window)
     return nis_max, spread, dof, wspread, wdof, one, rank_one, win, rank_win, delta
+
+
+@_jit
+def all_finite(claimed: FloatArray, rx: FloatArray, rssi: FloatArray, rx_t: FloatArray) -> bool:
+    """Is every value of one transmission's arrays finite?"""
+    return bool(
+        np.isfinite(claimed).all()
+        and np.isfinite(rx).all()
+        and np.isfinite(rssi).all()
+        and np.isfinite(rx_t).all()
+    )
 
 
 @_jit_fast

@@ -37,6 +37,7 @@ import numpy as np
 from ridsafe.common.messages import AlertState, RidsafeDetector
 from ridsafe.common.pathloss import LOSS_AT_1M_2400MHZ_DB
 from ridsafe.gcs.detection import TransmitterMonitor
+from ridsafe.gcs.detection_kernels import all_finite
 from ridsafe.gcs.pipeline_api import (
     AlertChange,
     CycleOutput,
@@ -77,26 +78,31 @@ class _Heard:
 
 def warm_up() -> None:
     """Load (or compile) every numba kernel once, so no cycle of a run pays for it: one
-    small transmission through detection, a track start and an update."""
+    small transmission through detection, a track start and an update. Receiver ids come
+    read-only (as from ``ingest``) and writable (as from tests): numba compiles each."""
     rx = np.array([[0.0, 0.0, 50.0], [400.0, 0.0, 80.0], [0.0, 400.0, 40.0], [400.0, 400, 60]])
     p = np.array([150.0, 250.0, 60.0])
     rssi = 20.0 - 20.0 * np.log10(np.linalg.norm(rx - p, axis=1)) - LOSS_AT_1M_2400MHZ_DB
+    sysids = np.arange(1, 5, dtype=np.int64)
+    frozen_sysids = sysids.copy()
+    frozen_sysids.setflags(write=False)
     txs = [
         Transmission(
             "warm-up",
             t,
             readonly(p),
             None,
-            np.arange(1, 5, dtype=np.int64),
+            ids,
             readonly(rx),
             readonly(np.full(4, t)),
             readonly(rssi),
         )
-        for t in (0.0, 1.0, 2.0)
+        for t, ids in ((0.0, sysids), (1.0, frozen_sysids), (2.0, sysids))
     ]
     cfg = PipelineConfig(tracks=TrackConfig(max_init_std_m=0.0))
     monitor = TransmitterMonitor("warm-up", cfg.detection, cfg.rssi_sigma_db)
     for tx in txs:
+        _finite(tx)
         monitor.observe(tx)
     track = initiate("warm-up", 0, txs[:2], cfg)
     if track is not None:
@@ -105,10 +111,12 @@ def warm_up() -> None:
 
 def _finite(tx: Transmission) -> bool:
     return bool(
-        np.all(np.isfinite(tx.claimed_p_enu_m))
-        and np.all(np.isfinite(tx.rx_p_enu_m))
-        and np.all(np.isfinite(tx.rssi_dbm))
-        and np.all(np.isfinite(tx.rx_t_s))
+        all_finite(
+            np.ascontiguousarray(tx.claimed_p_enu_m),
+            np.ascontiguousarray(tx.rx_p_enu_m),
+            np.ascontiguousarray(tx.rssi_dbm),
+            np.ascontiguousarray(tx.rx_t_s),
+        )
     )
 
 

@@ -12,6 +12,7 @@ the same axes, times in sim seconds, powers in dBm.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol
@@ -48,9 +49,10 @@ class Transmission:
     rx_t_s: FloatArray
     rssi_dbm: FloatArray
 
-    @property
+    @functools.cached_property
     def t_s(self) -> float:
-        """When the transmission was heard (earliest reception)."""
+        """When the transmission was heard (earliest reception; computed once, the arrays
+        are read-only)."""
         return float(self.rx_t_s.min())
 
     @property
