@@ -45,7 +45,13 @@ from ridsafe.gcs.motion_models import ACC, POS, VEL, MotionModel
 from ridsafe.gcs.multilateration import DB_PER_LN
 from ridsafe.gcs.pipeline_api import Transmission
 from ridsafe.gcs.pipeline_config import PipelineConfig
-from ridsafe.gcs.rssi_update import RssiMeasurement, gate_receptions, iplf_iterate, iplf_update
+from ridsafe.gcs.rssi_update import (
+    RssiMeasurement,
+    gate_receptions,
+    iplf_iterate,
+    iplf_update,
+    linearise,
+)
 
 FloatArray = NDArray[np.float64]
 
@@ -175,9 +181,10 @@ class GaussianSumLocaliser:
         idx = np.array([0, 1, 2, fused.x.shape[1] - 1])
         u0, Puu = fused.x[:, idx], fused.P[:, idx[:, None], idx]
         mean, cov = iplf_iterate(u0, Puu, meas, f.max_iterations, f.step_tol_m)
+        lin = linearise(meas, mean, cov)
 
         def updater(j: int, g: Gaussian) -> ModeUpdate:
-            return iplf_update(g, g.x.shape[1] - 1, meas, mean, cov)
+            return iplf_update(g, g.x.shape[1] - 1, meas, lin)
 
         return imm.update(self.state, updater)
 

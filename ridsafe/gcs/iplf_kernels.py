@@ -9,6 +9,10 @@ overhead:
     update of N(u0, Puu) by z = A u + b + N(0, R + Omega):       S = A Puu A^T + R + Omega,
     K = Puu A^T S^-1,  m+ = u0 + K (z - A u0 - b),  C+ = Puu - K A Puu.
 
+Computed without general solves (LAPACK's LU costs microseconds at these sizes): with
+C = L L^T the points are m +/- 2 L e_c, so Psi = L G with G_c = (dZ_c - dZ_{c+4}) / 4 and
+A^T = L^-T G, A C A^T = G^T G; S^-1 comes from its Cholesky factor by substitution.
+
 The on-disk cache does not notice edits in other modules a kernel calls: after editing,
 delete ``ridsafe/gcs/__pycache__/*.nb[ci]``.
 """
@@ -26,7 +30,7 @@ from numpy.typing import NDArray
 FloatArray = NDArray[np.float64]
 _F = TypeVar("_F", bound=Callable[..., Any])
 
-__all__ = ["gate", "iplf_final", "iplf_iterate_batch"]
+__all__ = ["gate", "iplf_final", "iplf_iterate_batch", "linearise_batch"]
 
 _LOG_2PI = math.log(2.0 * math.pi)
 
@@ -46,14 +50,46 @@ def _distances2(p: FloatArray, rx: FloatArray) -> FloatArray:
 
 
 @_jit
+def _lower_solve(L: NDArray[np.floating[Any]], B: FloatArray) -> FloatArray:
+    """L^-1 B by forward substitution (L lower triangular (k, k), B (k, m))."""
+    k, m = B.shape
+    X = B.copy()
+    for i in range(k):
+        for j in range(i):
+            f = L[i, j]
+            for c in range(m):
+                X[i, c] -= f * X[j, c]
+        for c in range(m):
+            X[i, c] /= L[i, i]
+    return X
+
+
+@_jit
+def _upper_solve(L: NDArray[np.floating[Any]], B: FloatArray) -> FloatArray:
+    """L^-T B by back substitution (L lower triangular (k, k), B (k, m))."""
+    k, m = B.shape
+    X = B.copy()
+    for i in range(k - 1, -1, -1):
+        for j in range(i + 1, k):
+            f = L[j, i]
+            for c in range(m):
+                X[i, c] -= f * X[j, c]
+        for c in range(m):
+            X[i, c] /= L[i, i]
+    return X
+
+
+@_jit
 def _slr(mean: FloatArray, cov: FloatArray, rx: FloatArray, loss: float) -> tuple[Any, Any, Any]:
+    """With C = L L^T and the points m +/- 2 L e_c, Psi = L G where G[c] = (dZ[c] - dZ[c+4]) / 4,
+    so A^T = C^-1 Psi = L^-T G and A C A^T = G^T G (no solve with C)."""
     k = rx.shape[0]
-    L = np.linalg.cholesky(cov) * 2.0
+    L = np.linalg.cholesky(cov)
     pts = np.empty((8, 4))
     for col in range(4):
         for r in range(4):
-            pts[col, r] = mean[r] + L[r, col]
-            pts[col + 4, r] = mean[r] - L[r, col]
+            pts[col, r] = mean[r] + 2.0 * L[r, col]
+            pts[col + 4, r] = mean[r] - 2.0 * L[r, col]
     Z = np.empty((8, k))
     for m in range(8):
         d2 = _distances2(pts[m], rx)
@@ -63,13 +99,15 @@ def _slr(mean: FloatArray, cov: FloatArray, rx: FloatArray, loss: float) -> tupl
     for m in range(8):
         z_bar += Z[m]
     z_bar /= 8.0
-    dU = pts - mean
     dZ = Z - z_bar
-    Psi = dU.T @ dZ / 8.0  # (4, k)
+    G = np.empty((4, k))
+    for c in range(4):
+        for i in range(k):
+            G[c, i] = 0.25 * (dZ[c, i] - dZ[c + 4, i])
     Phi = dZ.T @ dZ / 8.0  # (k, k)
-    A = np.linalg.solve(cov, Psi).T.copy()  # (k, 4)
+    A = _upper_solve(L, G).T.copy()  # (k, 4)
     b = z_bar - A @ mean
-    Omega = Phi - A @ cov @ A.T
+    Omega = Phi - G.T @ G
     Omega = 0.5 * (Omega + Omega.T)
     return A, b, Omega
 
@@ -86,7 +124,8 @@ def _update(
     APuu = A @ Puu  # (k, 4)
     S = APuu @ A.T + Rt
     S = 0.5 * (S + S.T)
-    K = np.linalg.solve(S, APuu).T.copy()  # (4, k)
+    L = np.linalg.cholesky(S)
+    K = _upper_solve(L, _lower_solve(L, APuu)).T.copy()  # (4, k) = Puu A^T S^-1
     nu = z - A @ u0 - b
     mean = u0 + K @ nu
     cov = Puu - K @ APuu
@@ -139,29 +178,48 @@ def iplf_iterate_batch(
 
 
 @_jit
-def iplf_final(
-    x0: FloatArray,
-    P0: FloatArray,
-    i_pt: int,
+def linearise_batch(
     post_mean: FloatArray,
     post_cov: FloatArray,
     rx: FloatArray,
-    z: FloatArray,
     s2: float,
     rx2: float,
     loss: float,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Whole-state update of each batch item, linearised over its observed block's
-    posterior; Joseph form; (x (B, n), P (B, n, n), log-likelihood (B,))."""
+    """SLR of every batch item over its observed block's posterior: (A (B, k, 4), b (B, k),
+    R + Omega (B, k, k)); every mode of a hypothesis is updated with the same."""
+    B, k = post_mean.shape[0], rx.shape[0]
+    A_out = np.empty((B, k, 4))
+    b_out = np.empty((B, k))
+    Rt_out = np.empty((B, k, k))
+    for h in range(B):
+        A, b, Omega = _slr(post_mean[h], post_cov[h], rx, loss)
+        A_out[h] = A
+        b_out[h] = b
+        Rt_out[h] = _with_r(Omega, post_mean[h], rx, s2, rx2)
+    return A_out, b_out, Rt_out
+
+
+@_jit
+def iplf_final(
+    x0: FloatArray,
+    P0: FloatArray,
+    i_pt: int,
+    A_all: FloatArray,
+    b_all: FloatArray,
+    Rt_all: FloatArray,
+    z: FloatArray,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Whole-state update of each batch item with its linearisation (``linearise_batch``);
+    Joseph form; (x (B, n), P (B, n, n), log-likelihood (B,))."""
     B, n = x0.shape
-    k = rx.shape[0]
+    k = z.shape[0]
     idx = np.array([0, 1, 2, i_pt])
     x_out = np.empty_like(x0)
     P_out = np.empty_like(P0)
     loglik = np.empty(B)
     for h in range(B):
-        A, b, Omega = _slr(post_mean[h], post_cov[h], rx, loss)
-        Rt = _with_r(Omega, post_mean[h], rx, s2, rx2)
+        A, b, Rt = A_all[h], b_all[h], Rt_all[h]
         Pux = np.empty((4, n))
         u0 = np.empty(4)
         for r in range(4):
@@ -175,7 +233,7 @@ def iplf_final(
         S = A @ Puu @ A.T + Rt
         S = 0.5 * (S + S.T)
         L = np.linalg.cholesky(S)
-        K = np.linalg.solve(S, APux).T.copy()  # (n, k)
+        K = _upper_solve(L, _lower_solve(L, APux)).T.copy()  # (n, k) = P_xu A^T S^-1
         nu = z - A @ u0 - b
         x_out[h] = x0[h] + K @ nu
         KA = K @ A  # (n, 4)

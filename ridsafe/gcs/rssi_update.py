@@ -27,9 +27,10 @@ the whole state (Joseph form)::
     P+ = (I - K H_x) P^- (I - K H_x)^T + K (R + Omega) K^T,   H_x = A placed at u's columns
     log Lambda = log N(z; A u^- + b, S)                        (the IMM's mode likelihood)
 
-Every array has a leading batch axis. ``iplf_iterate`` and ``iplf_update`` run compiled
-kernels (``iplf_kernels.py``); ``*_reference`` are the same equations in plain numpy, kept as
-the tests' oracle.
+Every array has a leading batch axis. ``iplf_iterate``, ``linearise`` (the last SLR, once
+per hypothesis for all its modes) and ``iplf_update`` run compiled kernels
+(``iplf_kernels.py``); ``*_reference`` are the same equations in plain numpy, kept as the
+tests' oracle.
 """
 
 from __future__ import annotations
@@ -48,12 +49,14 @@ from ridsafe.gcs.multilateration import DB_PER_LN
 FloatArray = NDArray[np.float64]
 
 __all__ = [
+    "Linearisation",
     "RssiMeasurement",
     "gate_receptions",
     "iplf_iterate",
     "iplf_iterate_reference",
     "iplf_update",
     "iplf_update_reference",
+    "linearise",
     "observed",
 ]
 
@@ -172,22 +175,44 @@ def iplf_iterate(
     )
 
 
+@dataclass(frozen=True, eq=False)
+class Linearisation:
+    """The SLR of h over each batch item's observed-block posterior:
+    h(u) ~ A u + b + N(0, Omega); ``A`` (B, k, 4), ``b`` (B, k), ``Rt`` = R + Omega (B, k, k).
+    Computed once per hypothesis and used by every one of its modes."""
+
+    A: FloatArray
+    b: FloatArray
+    Rt: FloatArray
+
+
+def linearise(meas: RssiMeasurement, post_mean: FloatArray, post_cov: FloatArray) -> Linearisation:
+    """The linearisation of the final update over the posterior (``post_mean``, ``post_cov``
+    from :func:`iplf_iterate`)."""
+    A, b, Rt = iplf_kernels.linearise_batch(
+        np.ascontiguousarray(post_mean),
+        np.ascontiguousarray(post_cov),
+        np.ascontiguousarray(meas.rx),
+        meas.sigma_db**2,
+        meas.rx_variance_db2_m2,
+        meas.loss_db,
+    )
+    return Linearisation(A, b, Rt)
+
+
 def iplf_update(
-    prior: Gaussian, i_pt: int, meas: RssiMeasurement, post_mean: FloatArray, post_cov: FloatArray
+    prior: Gaussian, i_pt: int, meas: RssiMeasurement, lin: Linearisation
 ) -> ModeUpdate:
-    """The whole-state update of ``prior`` (batch) linearised over the observed block's
-    posterior (``post_mean``, ``post_cov`` from :func:`iplf_iterate`)."""
+    """The whole-state update of ``prior`` (batch) with the linearisation over the observed
+    block's posterior (:func:`linearise`)."""
     x, P, loglik = iplf_kernels.iplf_final(
         np.ascontiguousarray(prior.x),
         np.ascontiguousarray(prior.P),
         i_pt,
-        np.ascontiguousarray(post_mean),
-        np.ascontiguousarray(post_cov),
-        np.ascontiguousarray(meas.rx),
+        lin.A,
+        lin.b,
+        lin.Rt,
         np.ascontiguousarray(meas.rssi),
-        meas.sigma_db**2,
-        meas.rx_variance_db2_m2,
-        meas.loss_db,
     )
     return ModeUpdate(x, P, loglik)
 
