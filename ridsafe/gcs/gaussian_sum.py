@@ -38,11 +38,10 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from ridsafe.gcs import imm
+from ridsafe.gcs import imm, mixture_kernels
 from ridsafe.gcs.imm import Gaussian, ImmModel, ImmState, ModeUpdate
 from ridsafe.gcs.initiation import GridSeed
 from ridsafe.gcs.motion_models import ACC, POS, VEL, MotionModel
-from ridsafe.gcs.multilateration import DB_PER_LN
 from ridsafe.gcs.pipeline_api import Transmission
 from ridsafe.gcs.pipeline_config import PipelineConfig
 from ridsafe.gcs.rssi_update import (
@@ -55,7 +54,13 @@ from ridsafe.gcs.rssi_update import (
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["GaussianSumLocaliser", "rssi_imm_model", "seed_prior"]
+__all__ = [
+    "GaussianSumLocaliser",
+    "moment_match",
+    "moment_match_reference",
+    "rssi_imm_model",
+    "seed_prior",
+]
 
 PT = 9  # the transmit power's index in a CA-ordered state (then 6 in CV order)
 _Z, _VZ, _AZ = 2, 5, 8
@@ -117,7 +122,18 @@ def seed_prior(
 
 
 def moment_match(weights: FloatArray, g: Gaussian) -> Gaussian:
-    """One Gaussian (batch of 1) with the moments of the weighted batch ``g``."""
+    """One Gaussian (batch of 1) with the moments of the weighted batch ``g`` (compiled:
+    ``mixture_kernels.mixture_moments``)."""
+    x, P = mixture_kernels.mixture_moments(
+        np.ascontiguousarray(weights, dtype=np.float64),
+        np.ascontiguousarray(g.x),
+        np.ascontiguousarray(g.P),
+    )
+    return Gaussian(x[None, :], P[None, :, :])
+
+
+def moment_match_reference(weights: FloatArray, g: Gaussian) -> Gaussian:
+    """Numpy reference of :func:`moment_match`."""
     x = weights @ g.x
     d = g.x - x
     P = np.einsum("h,hij->ij", weights, g.P + d[:, :, None] * d[:, None, :])
@@ -205,9 +221,11 @@ class GaussianSumLocaliser:
         f = self.cfg.rssi_filter
         if f.split_nonlinearity_db <= 0.0 or f.max_hypotheses <= self.size:
             return False
-        lam, vec = np.linalg.eigh(fused.P[:, POS, POS])
-        d2 = np.min(np.sum((fused.x[:, None, POS] - rx[None]) ** 2, axis=2), axis=1)
-        curvature = 0.5 * DB_PER_LN * lam[:, -1] / np.maximum(d2, 1.0)
+        curvature, axis = mixture_kernels.split_curvature(
+            np.ascontiguousarray(fused.x), np.ascontiguousarray(fused.P), np.ascontiguousarray(rx)
+        )
+        if not np.any(curvature > f.split_nonlinearity_db):
+            return False
         room = (f.max_hypotheses - self.size) // 2
         order = [int(i) for i in np.argsort(-curvature) if curvature[i] > f.split_nonlinearity_db]
         chosen = order[:room]
@@ -220,7 +238,7 @@ class GaussianSumLocaliser:
                 weights.append(self.weights[h])
                 continue
             for w, a in _HUBER:
-                parts.append(_split_along(self.state.take(np.array([h])), vec[h, :, -1], a))
+                parts.append(_split_along(self.state.take(np.array([h])), axis[h], a))
                 weights.append(self.weights[h] * w)
         self.state = imm.concat(parts)
         self.weights = np.array(weights)
@@ -232,12 +250,9 @@ class GaussianSumLocaliser:
         f = self.cfg.rssi_filter
         keep = np.arange(self.size)
         if f.merge_distance > 0.0 and self.size > 1:
-            p, C = fused.x[:, POS], fused.P[:, POS, POS]
-            d = p[:, None, :] - p[None, :, :]
-            m2 = np.einsum(
-                "abi,abi->ab", d, np.linalg.solve(C[:, None] + C[None], d[..., None])[..., 0]
+            m2 = mixture_kernels.pair_mahalanobis2(
+                np.ascontiguousarray(fused.x[:, POS]), np.ascontiguousarray(fused.P[:, POS, POS])
             )
-            m2[np.tril_indices(self.size)] = np.inf
             alive = np.ones(self.size, dtype=bool)
             for flat in np.argsort(m2, axis=None):
                 a, b = np.unravel_index(int(flat), m2.shape)
@@ -262,6 +277,9 @@ class GaussianSumLocaliser:
         layers = f.altitude_hypotheses_m
         if len(layers) < 2:
             return
+        gaps = np.abs(fused.x[:, _Z, None] - np.asarray(layers)[None, :])
+        if np.all(gaps.min(axis=0) <= 2.0 * f.hypothesis_std_m):
+            return  # every altitude layer is covered (the usual case)
         altitudes = list(fused.x[:, _Z])
         clones: list[ImmState] = []
         for z in layers:

@@ -72,7 +72,8 @@ class Gaussian:
 
 @dataclass(frozen=True, eq=False)
 class ModeUpdate:
-    """A mode filter's posterior and the log-likelihood of the measurement, per batch item."""
+    """A mode filter's posterior and the log-likelihood of the measurement, per batch item;
+    ``P`` symmetric (an updater symmetrises what it computes)."""
 
     x: FloatArray  # (H, n)
     P: FloatArray  # (H, n, n)
@@ -99,6 +100,13 @@ class ImmModel:
     _conversions: dict[tuple[int, ...], tuple[IndexArray, FloatArray]] = field(
         default_factory=dict, compare=False, repr=False
     )
+    _steps: dict[float, tuple[FloatArray, tuple[FloatArray, ...], tuple[FloatArray, ...]]] = field(
+        default_factory=dict, compare=False, repr=False
+    )
+
+    @property
+    def orders(self) -> tuple[int, ...]:
+        return tuple(m.order for m in self.models)
 
     def dim(self, mode: int) -> int:
         return self.models[mode].kin_dim + self.n_extra
@@ -123,6 +131,22 @@ class ImmModel:
             self._matrices.clear()
         self._matrices[key] = (F, Q)
         return F, Q
+
+    def over(
+        self, dt_s: float
+    ) -> tuple[FloatArray, tuple[FloatArray, ...], tuple[FloatArray, ...]]:
+        """(Pi over ``dt_s``, every mode's F, every mode's Q), cached per interval."""
+        key = round(dt_s, 9)
+        hit = self._steps.get(key)
+        if hit is not None:
+            return hit
+        FQ = [self.matrices(j, dt_s) for j in range(len(self.models))]
+        Pi = np.ascontiguousarray(transition_over(self.transition, dt_s, self.dt_ref_s))
+        out = (Pi, tuple(F for F, _ in FQ), tuple(Q for _, Q in FQ))
+        if len(self._steps) > 4096:
+            self._steps.clear()
+        self._steps[key] = out
+        return out
 
     def conversions(self, to_orders: tuple[int, ...]) -> tuple[IndexArray, FloatArray]:
         """Every mode's conversion into each kinematic order of ``to_orders`` as index maps
@@ -237,29 +261,26 @@ def predict(state: ImmState, model: ImmModel, t_s: float) -> ImmState:
     dt = t_s - state.t_s
     if dt <= 0.0:
         return state
-    Pi = transition_over(model.transition, dt, model.dt_ref_s)
-    orders = tuple(m.order for m in model.models)
-    src, lift_var = model.conversions(orders)
-    FQ = [model.matrices(j, dt) for j in range(len(orders))]
+    Pi, Fs, Qs = model.over(dt)
+    src, lift_var = model.conversions(model.orders)
     H = state.size
-    xs = tuple(np.empty((H, model.dim(j))) for j in range(len(orders)))
-    Ps = tuple(np.empty((H, model.dim(j), model.dim(j))) for j in range(len(orders)))
+    xs = tuple([np.empty((H, F.shape[0])) for F in Fs])
+    Ps = tuple([np.empty((H, F.shape[0], F.shape[0])) for F in Fs])
     mu = np.empty_like(state.mu)
     imm_kernels.predict_batch(
-        tuple(np.ascontiguousarray(g.x) for g in state.modes),
-        tuple(np.ascontiguousarray(g.P) for g in state.modes),
+        tuple([np.ascontiguousarray(g.x) for g in state.modes]),
+        tuple([np.ascontiguousarray(g.P) for g in state.modes]),
         np.ascontiguousarray(state.mu),
-        np.ascontiguousarray(Pi),
+        Pi,
         src,
         lift_var,
-        tuple(F for F, _ in FQ),
-        tuple(Q for _, Q in FQ),
+        Fs,
+        Qs,
         xs,
         Ps,
         mu,
     )
-    modes = tuple(Gaussian(x, P) for x, P in zip(xs, Ps, strict=True))
-    return ImmState(modes, mu, t_s)
+    return ImmState(tuple([Gaussian(x, P) for x, P in zip(xs, Ps, strict=True)]), mu, t_s)
 
 
 def predict_reference(state: ImmState, model: ImmModel, t_s: float) -> ImmState:
@@ -289,13 +310,13 @@ def update(
         if res is None:
             return None
         results.append(res)
-    log_lik = np.column_stack([r.log_likelihood for r in results])  # (H, M)
+    log_lik = np.stack([r.log_likelihood for r in results], axis=1)  # (H, M)
     log_w = np.log(np.maximum(state.mu, 1e-300)) + log_lik
     top = log_w.max(axis=1, keepdims=True)
     w = np.exp(log_w - top)
     total = top[:, 0] + np.log(w.sum(axis=1))
     mu = w / w.sum(axis=1, keepdims=True)
-    modes = tuple(Gaussian(r.x, symmetrize(r.P)) for r in results)
+    modes = tuple([Gaussian(r.x, r.P) for r in results])
     return ImmState(modes, mu, state.t_s), total
 
 
@@ -308,8 +329,8 @@ def merge(state: ImmState, model: ImmModel, order: int = 2) -> Gaussian:
     x = np.empty((state.size, n))
     P = np.empty((state.size, n, n))
     imm_kernels.merge_batch(
-        tuple(np.ascontiguousarray(g.x) for g in state.modes),
-        tuple(np.ascontiguousarray(g.P) for g in state.modes),
+        tuple([np.ascontiguousarray(g.x) for g in state.modes]),
+        tuple([np.ascontiguousarray(g.P) for g in state.modes]),
         np.ascontiguousarray(state.mu),
         src[0],
         lift_var[0],

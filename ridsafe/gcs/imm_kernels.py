@@ -29,7 +29,7 @@ FloatArray = NDArray[np.float64]
 IndexArray = NDArray[np.int64]
 _F = TypeVar("_F", bound=Callable[..., Any])
 
-__all__ = ["merge_batch", "predict_batch"]
+__all__ = ["accumulate", "merge_batch", "predict_batch"]
 
 
 def _jit(fn: _F) -> _F:
@@ -63,7 +63,7 @@ def _convert(
 
 
 @_jit
-def _accumulate(
+def accumulate(
     weight: float, xc: FloatArray, Pc: FloatArray, mean: FloatArray, P: FloatArray
 ) -> None:
     """P += weight (Pc + (xc - mean)(xc - mean)^T)."""
@@ -96,7 +96,7 @@ def _mixed_start(
             x0[r] += weights[i] * convs_x[i, r]
     P0 = np.zeros((n, n))
     for i in range(M):
-        _accumulate(weights[i], convs_x[i], convs_P[i], x0, P0)
+        accumulate(weights[i], convs_x[i], convs_P[i], x0, P0)
     return x0, 0.5 * (P0 + P0.T)
 
 

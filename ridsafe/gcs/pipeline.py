@@ -36,6 +36,7 @@ import numpy as np
 
 from ridsafe.common.messages import AlertState, RidsafeDetector
 from ridsafe.common.pathloss import LOSS_AT_1M_2400MHZ_DB
+from ridsafe.gcs import mixture_kernels
 from ridsafe.gcs.detection import TransmitterMonitor
 from ridsafe.gcs.detection_kernels import all_finite
 from ridsafe.gcs.pipeline_api import (
@@ -107,6 +108,10 @@ def warm_up() -> None:
     track = initiate("warm-up", 0, txs[:2], cfg)
     if track is not None:
         track.update(txs[2])
+    # What a small start may not reach: the split test and the pairwise merge distances.
+    x, P = np.zeros((2, 7)), np.tile(np.eye(7), (2, 1, 1))
+    mixture_kernels.split_curvature(x, P, rx.copy())
+    mixture_kernels.pair_mahalanobis2(x[:, :3].copy(), P[:, :3, :3].copy())
 
 
 def _finite(tx: Transmission) -> bool:

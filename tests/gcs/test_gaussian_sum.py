@@ -5,10 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ridsafe.gcs import imm
-from ridsafe.gcs.gaussian_sum import GaussianSumLocaliser, _split_along, moment_match
+from ridsafe.gcs import imm, mixture_kernels
+from ridsafe.gcs.gaussian_sum import (
+    GaussianSumLocaliser,
+    _split_along,
+    moment_match,
+    moment_match_reference,
+)
 from ridsafe.gcs.imm import Gaussian, ImmState
 from ridsafe.gcs.initiation import GridSeed, grid_posterior, init_windows, spread_m
+from ridsafe.gcs.multilateration import DB_PER_LN
 from ridsafe.gcs.pipeline_api import Transmission, readonly
 from ridsafe.gcs.pipeline_config import PipelineConfig
 
@@ -121,3 +127,33 @@ def test_the_sum_tracks_a_transmitter_and_reports_the_mixture() -> None:
     assert np.linalg.norm(fused.x[0, 3:6] - v) < 2.0
     assert mu.sum() == pytest.approx(1.0)
     assert loc.weights.sum() == pytest.approx(1.0)
+
+
+def test_mixture_kernels_match_numpy() -> None:
+    """The compiled bookkeeping against numpy: moments, split curvature and axis, pairwise
+    Mahalanobis distances (inf on and below the diagonal)."""
+    rng = np.random.default_rng(12)
+    H, n = 5, 7
+    A = rng.normal(size=(H, n, n))
+    g = Gaussian(rng.normal(0, 100, (H, n)), A @ np.swapaxes(A, 1, 2) + np.eye(n))
+    w = rng.uniform(0.1, 1.0, H)
+    w /= w.sum()
+    got, ref = moment_match(w, g), moment_match_reference(w, g)
+    np.testing.assert_allclose(got.x, ref.x, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(got.P, ref.P, rtol=1e-12, atol=1e-9)
+    rx = rng.normal(0, 300, (9, 3))
+    curvature, axis = mixture_kernels.split_curvature(g.x, g.P, rx)
+    lam, vec = np.linalg.eigh(g.P[:, :3, :3])
+    d2 = np.min(np.sum((g.x[:, None, :3] - rx[None]) ** 2, axis=2), axis=1)
+    np.testing.assert_allclose(curvature, 0.5 * DB_PER_LN * lam[:, -1] / np.maximum(d2, 1.0))
+    np.testing.assert_allclose(np.abs(np.einsum("hi,hi->h", axis, vec[:, :, -1])), 1.0)
+    m2 = mixture_kernels.pair_mahalanobis2(g.x[:, :3].copy(), g.P[:, :3, :3].copy())
+    for a in range(H):
+        for b in range(H):
+            if b <= a:
+                assert m2[a, b] == np.inf
+                continue
+            d = g.x[a, :3] - g.x[b, :3]
+            assert m2[a, b] == pytest.approx(
+                d @ np.linalg.solve(g.P[a, :3, :3] + g.P[b, :3, :3], d)
+            )
