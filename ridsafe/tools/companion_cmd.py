@@ -151,7 +151,9 @@ def run(args: argparse.Namespace) -> int:
     except (RidsafeError, ValueError, KeyError, OSError) as exc:
         print(f"ridsafe companion: {exc}", file=sys.stderr)
         return 2
-    sink = ConsoleSink(runtime.open_sink(args.log, loaded.scenario.origin))
+    sink = ConsoleSink(
+        runtime.open_sink(args.log, loaded.scenario.origin, loaded.run.foxglove_channels)
+    )
     try:
         companions = build_companions(loaded, vehicles, planner, sink, signing)
         app = CompanionApp(

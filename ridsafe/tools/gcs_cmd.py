@@ -73,7 +73,7 @@ def _build(args: argparse.Namespace) -> Gcs:
     listen_spec(args.listen)
     runtime.check_speed(args)
     pipeline = make_default_pipeline(loaded)
-    sink = runtime.open_sink(args.log, loaded.scenario.origin)
+    sink = runtime.open_sink(args.log, loaded.scenario.origin, loaded.run.foxglove_channels)
     return Gcs(config, loaded.scenario.origin, pipeline, sink, signing)
 
 

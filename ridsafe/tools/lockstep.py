@@ -110,7 +110,8 @@ def run_lockstep(
     log_path.parent.mkdir(parents=True, exist_ok=True)
     wall_start = time.perf_counter()
     status, reason = "completed", ""
-    with McapRecorder(log_path, origin=loaded.scenario.origin) as recorder:
+    foxglove = loaded.run.foxglove_channels
+    with McapRecorder(log_path, origin=loaded.scenario.origin, foxglove=foxglove) as recorder:
         assemble.log_meta(recorder, assemble.run_meta(loaded, "lockstep", planner))
         run = build(loaded, planner, recorder)
         duration = loaded.scenario.duration_s

@@ -136,7 +136,8 @@ def _live(
     t0 = time.time() + live.STARTUP_MARGIN_S
     children = _children(loaded, planner, out, scenario_path, speed, t0)
     own = parts / "run.mcap"
-    with McapRecorder(own, origin=loaded.scenario.origin) as recorder:
+    foxglove = loaded.run.foxglove_channels
+    with McapRecorder(own, origin=loaded.scenario.origin, foxglove=foxglove) as recorder:
         assemble.log_meta(recorder, assemble.run_meta(loaded, "live", planner))
         bar = _SimTimeBar(duration)
         try:

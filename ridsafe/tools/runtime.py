@@ -72,14 +72,15 @@ def wait_for_start(args: argparse.Namespace) -> None:
         time.sleep(max(0.0, args.t0_unix - time.time()))
 
 
-def open_sink(path: Path | None, origin: GeodeticOrigin) -> LogSink:
-    """The MCAP recorder writing ``path``, or a sink that drops everything."""
+def open_sink(path: Path | None, origin: GeodeticOrigin, foxglove: bool = True) -> LogSink:
+    """The MCAP recorder writing ``path`` (with the derived Foxglove channels or without), or
+    a sink that drops everything."""
     if path is None:
         return NullSink()
     from ridsafe.tools.recorder import McapRecorder  # noqa: PLC0415 (mcap only when logging)
 
     path.parent.mkdir(parents=True, exist_ok=True)
-    return McapRecorder(path, origin=origin)
+    return McapRecorder(path, origin=origin, foxglove=foxglove)
 
 
 def close_sink(sink: LogSink) -> None:

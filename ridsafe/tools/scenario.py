@@ -56,6 +56,9 @@ class RunConfig:
     live_tick_s: float = 0.01
     sign_gcs_links: bool = True  # MAVLink 2 signing between companions and the GCS
     gcs_listen: str = "udpin:127.0.0.1:14450"
+    # The log's derived Foxglove channels (3D scene of the aircraft and regions, map fixes),
+    # next to the records: about half of a log's bytes. A sweep leaves them out by default.
+    foxglove_channels: bool = True
 
     def __post_init__(self) -> None:
         for name in ("lockstep_tick_s", "live_tick_s"):

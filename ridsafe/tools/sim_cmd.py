@@ -54,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
     kinds = [EndpointKind.COMPANION]
     if loaded.sim.ports.gcs_out_enabled:
         kinds.append(EndpointKind.GCS)
-    sink = runtime.open_sink(args.log, loaded.scenario.origin)
+    sink = runtime.open_sink(args.log, loaded.scenario.origin, loaded.run.foxglove_channels)
     backend = SimBackend(loaded.scenario, loaded.sim, kinds, sink=sink)
     try:
         endpoints = open_endpoints(backend, loaded.sim.ports)

@@ -193,6 +193,8 @@ def plan_sweep(base: ScenarioFile, config: SweepConfig, source: str = "") -> Swe
     """The matrix, seed-major (a partial sweep has whole matched seeds), largest density first
     within a seed (the pool's tail is short runs)."""
     duration = config.duration_s or base.scenario.duration_s
+    run = dataclasses.replace(base.run, foxglove_channels=config.foxglove_channels)
+    base = dataclasses.replace(base, run=run)
     specs = [
         RunSpec(density, seed, planner, duration, params, overrides)
         for seed in config.seed_values

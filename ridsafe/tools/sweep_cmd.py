@@ -10,8 +10,9 @@
 The matrix comes from the config's optional ``sweep:`` section (densities, seeds, planners,
 duration_s, params: {name: {keys: [...], values: [...]}}), else the paper's; flags override
 it (``--vary`` adds or replaces one axis). Each run: DIR/n{density}/{planner}/seed{seed:03d}
-[/{axis}={value}]/ with run.mcap, result.json and run.log. Running the same command again
-skips finished runs. A failed run is recorded and the sweep goes on. Then: ridsafe report DIR.
+[/{axis}={value}]/ with run.mcap (every record; the derived Foxglove channels only with
+``--foxglove``), result.json and run.log. Running the same command again skips finished
+runs. A failed run is recorded and the sweep goes on. Then: ridsafe report DIR.
 """
 
 from __future__ import annotations
@@ -79,6 +80,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         metavar="KEY=VALUE",
         help="override a config value in every run, e.g. --set pipeline.region.alpha=0.1",
     )
+    parser.add_argument(
+        "--foxglove",
+        action="store_true",
+        help="keep the derived Foxglove channels (3D scene, map) in every run's log",
+    )
     parser.add_argument("--dry-run", action="store_true", help="list the matrix, fly nothing")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.set_defaults(func=run)
@@ -124,6 +130,8 @@ def sweep_config(args: argparse.Namespace, config: SweepConfig) -> SweepConfig:
         changes["duration_s"] = args.duration
     if args.vary:
         changes["params"] = {**config.params, **dict(parse_vary(text) for text in args.vary)}
+    if args.foxglove:
+        changes["foxglove_channels"] = True
     return dataclasses.replace(config, **changes)  # type: ignore[arg-type]
 
 

@@ -126,12 +126,21 @@ def test_an_axis_may_not_set_the_matrix_own_keys() -> None:
 
 
 def test_a_spec_flies_what_ridsafe_run_flies_for_the_same_flags() -> None:
+    """The same scenario; the sweep's logs leave the derived Foxglove channels out."""
     plan = _plan()
     spec = next(s for s in plan.specs if s.density == 8 and s.seed == 1)
+    overrides = ["run.foxglove_channels=false"]
     args = argparse.Namespace(
-        config=str(PAPER), overrides=[], seed=1, duration=20.0, aircraft=8, planner=None
+        config=str(PAPER), overrides=overrides, seed=1, duration=20.0, aircraft=8, planner=None
     )
     assert scenario_for(plan.base, spec) == run_cmd.effective_scenario(args)
+
+
+def test_foxglove_channels_are_left_out_of_sweep_logs_unless_asked_for() -> None:
+    for flags, wanted in (((), False), (("--foxglove",), True)):
+        args = _cli(str(PAPER), "--densities", "4", "--seeds", "0", "--planners", "aware", *flags)
+        plan = sweep_cmd.make_plan(args)
+        assert scenario_for(plan.base, plan.specs[0]).run.foxglove_channels is wanted
 
 
 def test_vary_flags_parse_into_axes() -> None:
