@@ -15,6 +15,8 @@ The largest is DESIGN.md's "ellipsoid radius".
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from numpy.typing import NDArray
 from scipy.special import chdtri
@@ -37,8 +39,10 @@ __all__ = [
 MIN_VARIANCE_M2 = 1e-6
 
 
+@functools.lru_cache(maxsize=64)
 def chi2_threshold(alpha: float, dof: int = 3) -> float:
-    """F^-1_{chi2_dof}(1 - alpha): the inverse survival function at alpha."""
+    """F^-1_{chi2_dof}(1 - alpha): the inverse survival function at alpha (cached: a region
+    is made every cycle for every track, always at the configured alpha)."""
     if not 0.0 < alpha < 1.0:
         raise ValueError(f"alpha must be in (0, 1), got {alpha}")
     return float(chdtri(dof, alpha))
@@ -46,22 +50,42 @@ def chi2_threshold(alpha: float, dof: int = 3) -> float:
 
 def positive_definite(cov: FloatArray, floor: float = MIN_VARIANCE_M2) -> FloatArray:
     """Symmetrised ``cov`` with eigenvalues raised to at least ``floor``."""
+    return _positive_definite_eigh(cov, floor)[0]
+
+
+def _positive_definite_eigh(
+    cov: FloatArray, floor: float = MIN_VARIANCE_M2
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """(``positive_definite(cov)``, and its eigenvalues (ascending) and eigenvectors): one
+    decomposition unless the floor had to be applied."""
     sym = 0.5 * (cov + cov.T)
     lam, V = np.linalg.eigh(sym)
     if lam[0] >= floor:
-        return sym
+        return sym, lam, V
     out: FloatArray = (V * np.maximum(lam, floor)) @ V.T
-    return 0.5 * (out + out.T)
+    out = 0.5 * (out + out.T)
+    lam, V = np.linalg.eigh(out)
+    return out, lam, V
 
 
 def ellipsoid_axes(cov: FloatArray, threshold: float) -> tuple[FloatArray, FloatArray]:
     """(semi_axes_m (3,) largest first, axes (3, 3) unit columns forming a rotation)."""
     lam, V = np.linalg.eigh(0.5 * (cov + cov.T))
-    order = np.argsort(lam)[::-1]
-    lam, V = np.maximum(lam[order], 0.0), V[:, order]
-    if np.linalg.det(V) < 0.0:
+    return _axes(lam, V, threshold)
+
+
+def _axes(lam: FloatArray, V: FloatArray, threshold: float) -> tuple[FloatArray, FloatArray]:
+    """``ellipsoid_axes`` from the eigen-decomposition (ascending) of the symmetric cov."""
+    lam, V = np.maximum(lam[::-1], 0.0), V[:, ::-1].copy()
+    if _det3(V) < 0.0:
         V[:, 2] = -V[:, 2]
     return np.sqrt(threshold * lam), V
+
+
+def _det3(M: FloatArray) -> float:
+    """det of a 3 x 3 matrix by cofactors (here +-1: only its sign matters)."""
+    (a, b, c), (d, e, f), (g, h, i) = M.tolist()
+    return float(a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g))
 
 
 def mahalanobis2(point: FloatArray, center: FloatArray, cov: FloatArray) -> float:
@@ -85,9 +109,9 @@ def make_region(
     cfg: RegionConfig,
 ) -> UnsafeRegion:
     """The region of an estimate at ``t_s``, valid for ``cfg.validity_s``."""
-    cov = positive_definite(cov_enu_m2)
+    cov, lam, V = _positive_definite_eigh(cov_enu_m2)
     threshold = chi2_threshold(cfg.alpha)
-    semi, axes = ellipsoid_axes(cov, threshold)
+    semi, axes = _axes(lam, V, threshold)
     return UnsafeRegion(
         uas_id=uas_id,
         track_id=track_id,
