@@ -32,6 +32,7 @@ import logging
 import math
 from collections import OrderedDict, deque
 from dataclasses import dataclass, field
+from typing import TypeVar
 
 import numpy as np
 
@@ -157,18 +158,27 @@ class _Group:
     def transmission(self) -> Transmission:
         rxs = [self.receptions[k] for k in sorted(self.receptions)]
         velocity = None if self.claimed_v_enu_m_s is None else readonly(self.claimed_v_enu_m_s)
-        sysids = np.array([r.rx_sysid for r in rxs], dtype=np.int64)
-        sysids.setflags(write=False)
         return Transmission(
             uas_id=self.uas_id,
             rid_timestamp_s=self.rid_timestamp_s,
             claimed_p_enu_m=readonly(self.claimed_p_enu_m),
             claimed_v_enu_m_s=velocity,
-            rx_sysid=sysids,
-            rx_p_enu_m=readonly(np.reshape([r.rx_p_enu_m for r in rxs], (len(rxs), 3))),
-            rx_t_s=readonly([r.t_s for r in rxs]),
-            rssi_dbm=readonly([r.rssi_dbm for r in rxs]),
+            rx_sysid=_frozen(np.array([r.rx_sysid for r in rxs], dtype=np.int64)),
+            rx_p_enu_m=_frozen(
+                np.array([r.rx_p_enu_m for r in rxs], dtype=np.float64).reshape(len(rxs), 3)
+            ),
+            rx_t_s=_frozen(np.array([r.t_s for r in rxs], dtype=np.float64)),
+            rssi_dbm=_frozen(np.array([r.rssi_dbm for r in rxs], dtype=np.float64)),
         )
+
+
+_A = TypeVar("_A", bound=np.ndarray)
+
+
+def _frozen(arr: _A) -> _A:
+    """``arr`` (freshly built, not shared) made read-only in place."""
+    arr.setflags(write=False)
+    return arr
 
 
 def group_key(uas_id: str, rid_timestamp_s: float) -> GroupKey:
