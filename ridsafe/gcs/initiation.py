@@ -25,6 +25,7 @@ transmit power profiled out (it is constant: one power for all receptions)::
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
@@ -100,28 +101,30 @@ def _local_minima(cost: FloatArray) -> NDArray[np.intp]:
 
 
 def _evaluate(
-    xy: FloatArray, alt: float, rx: FloatArray, z: FloatArray, s2: float
+    xy: FloatArray, altitudes_m: Sequence[float], rx: FloatArray, z: FloatArray, s2: float
 ) -> tuple[FloatArray, FloatArray]:
-    cost, power = grid_costs(xy, np.array([alt]), rx, z, LOSS_AT_1M_2400MHZ_DB)
-    return cost[0] / s2, power[0]
+    """Cost C / s^2 and profiled power at every cell of ``xy`` and altitude: (A, G) each."""
+    cost, power = grid_costs(xy, np.asarray(altitudes_m, float), rx, z, LOSS_AT_1M_2400MHZ_DB)
+    return cost / s2, power
 
 
-def _basin(
-    coarse: _Cells, mode_xy: FloatArray, others: FloatArray, cell_m: float, fine: _Cells
-) -> _Cells:
-    """The coarse cells nearer ``mode_xy`` than ``others`` (k, 2), its 3 x 3 neighbourhood
-    replaced by ``fine``."""
-    d_mode = np.sum((coarse.xy - mode_xy) ** 2, axis=1)
-    mine = np.ones(coarse.xy.shape[0], dtype=bool)
-    for o in others:
-        mine &= d_mode <= np.sum((coarse.xy - o) ** 2, axis=1)
-    mine &= np.max(np.abs(coarse.xy - mode_xy), axis=1) > 1.5 * cell_m
+def _basin(coarse: _Cells, mine: NDArray[np.bool_], fine: _Cells) -> _Cells:
+    """The coarse cells ``mine`` (the mode's, its 3 x 3 neighbourhood excluded), then
+    ``fine`` (that neighbourhood at the fine resolution)."""
     return _Cells(
-        np.vstack((coarse.xy[mine], fine.xy)),
-        np.r_[coarse.side[mine], fine.side],
-        np.r_[coarse.cost[mine], fine.cost],
-        np.r_[coarse.power[mine], fine.power],
+        np.concatenate((coarse.xy[mine], fine.xy)),
+        np.concatenate((coarse.side[mine], fine.side)),
+        np.concatenate((coarse.cost[mine], fine.cost)),
+        np.concatenate((coarse.power[mine], fine.power)),
     )
+
+
+def _outside_neighbourhood(index: int, shape: tuple[int, int]) -> NDArray[np.bool_]:
+    """Flat mask of the grid's cells outside the 3 x 3 cells about flat ``index``."""
+    ix, iy = divmod(index, shape[1])
+    mask = np.ones(shape, dtype=bool)
+    mask[max(ix - 1, 0) : ix + 2, max(iy - 1, 0) : iy + 2] = False
+    return mask.ravel()
 
 
 def _moments(
@@ -146,15 +149,25 @@ def _coarse_grid(
     cell_m: float,
     margin_m: float,
 ) -> tuple[list[_Cells], tuple[int, int]]:
-    """Every coarse cell at every altitude, and the grid's shape."""
+    """Every coarse cell at every altitude (one pass over the cells), and the grid's shape
+    (the flat index of cell (ix, iy) is ix * ny + iy)."""
     xs, ys = _axes(rx, cell_m, margin_m)
     gx, gy = np.meshgrid(xs, ys, indexing="ij")
     xy = np.column_stack((gx.ravel(), gy.ravel()))
-    cells = []
-    for alt in altitudes_m:
-        cost, power = _evaluate(xy, alt, rx, z, s2)
-        cells.append(_Cells(xy, np.full(xy.shape[0], cell_m), cost, power))
+    cost, power = _evaluate(xy, altitudes_m, rx, z, s2)
+    side = np.full(xy.shape[0], cell_m)
+    cells = [_Cells(xy, side, cost[a], power[a]) for a in range(len(altitudes_m))]
     return cells, (xs.shape[0], ys.shape[0])
+
+
+@functools.cache
+def _fine_offsets(cell_m: float, fine_m: float) -> FloatArray:
+    """Centres of the ``fine_m`` cells over 3 x 3 coarse cells, about the middle: (F, 2)."""
+    offsets = np.arange(-1.5 * cell_m + fine_m / 2, 1.5 * cell_m, fine_m)
+    fx, fy = np.meshgrid(offsets, offsets, indexing="ij")
+    out = np.column_stack((fx.ravel(), fy.ravel()))
+    out.setflags(write=False)
+    return out
 
 
 def _fine_window(
@@ -167,11 +180,9 @@ def _fine_window(
     fine_m: float,
 ) -> _Cells:
     """``fine_m`` cells over the 3 x 3 coarse cells about ``centre``."""
-    offsets = np.arange(-1.5 * cell_m + fine_m / 2, 1.5 * cell_m, fine_m)
-    fx, fy = np.meshgrid(offsets, offsets, indexing="ij")
-    xy = centre + np.column_stack((fx.ravel(), fy.ravel()))
-    cost, power = _evaluate(xy, alt, rx, z, s2)
-    return _Cells(xy, np.full(xy.shape[0], fine_m), cost, power)
+    xy = centre + _fine_offsets(cell_m, fine_m)
+    cost, power = _evaluate(xy, (alt,), rx, z, s2)
+    return _Cells(xy, np.full(xy.shape[0], fine_m), cost[0], power[0])
 
 
 def grid_posterior(
@@ -195,13 +206,16 @@ def grid_posterior(
     )[:max_seeds]
     span = max(tx.t_s for tx in txs) - min(tx.t_s for tx in txs)
     blur = (MAX_SPEED_M_S * span / 2.0) ** 2 * np.eye(2)
+    xy = coarse[0].xy  # the same cells at every altitude
+    centres = xy[[i for _, _, i in modes]]
+    d2 = np.sum((xy[:, None, :] - centres[None, :, :]) ** 2, axis=2)  # (G, modes)
     parts: list[tuple[_Cells, float]] = []
-    for _, a, i in modes:
-        centre = coarse[a].xy[i]
-        fine = _fine_window(centre, altitudes_m[a], rx, z, s2, cell_m, fine_m)
-        others = np.array([coarse[b].xy[j] for _, b, j in modes if b == a and j != i])
-        basin = _basin(coarse[a], centre, others.reshape(-1, 2), cell_m, fine)
-        parts.append((basin, altitudes_m[a]))
+    for m, (_, a, i) in enumerate(modes):
+        fine = _fine_window(centres[m], altitudes_m[a], rx, z, s2, cell_m, fine_m)
+        layer = [n for n, (_, b, _) in enumerate(modes) if b == a]
+        mine = d2[:, m] <= d2[:, layer].min(axis=1)  # no farther than its layer's other modes
+        mine &= _outside_neighbourhood(i, shape)
+        parts.append((_basin(coarse[a], mine, fine), altitudes_m[a]))
     c_min = min(float(p.cost.min()) for p, _ in parts)
     seeds = [_moments(cells, c_min, blur, z.shape[0], s2, alt) for cells, alt in parts]
     total = sum(s.weight for s in seeds)
