@@ -30,6 +30,7 @@ from __future__ import annotations
 import enum
 import logging
 import math
+import operator
 from collections import OrderedDict, deque
 from dataclasses import dataclass, field
 from typing import TypeVar
@@ -77,31 +78,34 @@ class Reception:
 # --- checks (pure functions) ---------------------------------------------------------------
 
 
-def _floats(obs: Observation) -> tuple[float, ...]:
-    optional = (
-        obs.claimed_course_deg,
-        obs.claimed_speed_horizontal_m_s,
-        obs.claimed_speed_vertical_m_s,
+_REQUIRED_FLOATS = operator.attrgetter(
+    "t_s",
+    "rx_lat_deg",
+    "rx_lon_deg",
+    "rx_alt_m",
+    "claimed_lat_deg",
+    "claimed_lon_deg",
+    "claimed_alt_m",
+    "rid_timestamp_s",
+    "rssi_dbm",
+)
+_OPTIONAL_FLOATS = operator.attrgetter(
+    "claimed_course_deg", "claimed_speed_horizontal_m_s", "claimed_speed_vertical_m_s"
+)
+
+
+def _finite(obs: Observation) -> bool:
+    """Every float of the report finite (the optional ones when present)?"""
+    return all(map(math.isfinite, _REQUIRED_FLOATS(obs))) and all(
+        v is None or math.isfinite(v) for v in _OPTIONAL_FLOATS(obs)
     )
-    required = (
-        obs.t_s,
-        obs.rx_lat_deg,
-        obs.rx_lon_deg,
-        obs.rx_alt_m,
-        obs.claimed_lat_deg,
-        obs.claimed_lon_deg,
-        obs.claimed_alt_m,
-        obs.rid_timestamp_s,
-        obs.rssi_dbm,
-    )
-    return required + tuple(v for v in optional if v is not None)
 
 
 def check_values(obs: Observation, config: GcsConfig) -> RejectReason | None:
     """The first reason the report's own values are implausible, or None."""
     if not obs.uas_id.strip("\x00 "):
         return RejectReason.EMPTY_ID
-    if not all(math.isfinite(v) for v in _floats(obs)):
+    if not _finite(obs):
         return RejectReason.NON_FINITE
     for lat, lon in ((obs.rx_lat_deg, obs.rx_lon_deg), (obs.claimed_lat_deg, obs.claimed_lon_deg)):
         if abs(lat) > 90.0 or abs(lon) > 180.0:
@@ -134,15 +138,6 @@ def claimed_velocity_enu(obs: Observation) -> Vec3 | None:
     return (speed_h * math.sin(course), speed_h * math.cos(course), speed_v)
 
 
-def positions_enu(origin: GeodeticOrigin, obs: Observation) -> tuple[Vec3, Vec3]:
-    """(receiver, claimed) positions in the scenario ENU frame about ``origin``."""
-    rx = frames.geodetic_to_enu_point(origin, obs.rx_lat_deg, obs.rx_lon_deg, obs.rx_alt_m)
-    claimed = frames.geodetic_to_enu_point(
-        origin, obs.claimed_lat_deg, obs.claimed_lon_deg, obs.claimed_alt_m
-    )
-    return rx, claimed
-
-
 # --- grouping --------------------------------------------------------------------------------
 
 
@@ -151,7 +146,8 @@ class _Group:
     uas_id: str
     rid_timestamp_s: float
     opened_s: float
-    claimed_p_enu_m: Vec3
+    claimed_geodetic: Vec3  # (lat deg, lon deg, alt m) of the first report
+    claimed_p_enu_m: Vec3  # the same in ENU
     claimed_v_enu_m_s: Vec3 | None
     receptions: dict[int, Reception] = field(default_factory=dict)
 
@@ -244,19 +240,26 @@ class Ingest:
         reason = check_values(obs, self.config) or check_time(obs.t_s, now_s, self.config)
         if reason is not None:
             return reason
-        rx_p, claimed_p = positions_enu(self.origin, obs)
+        key = group_key(obs.uas_id, obs.rid_timestamp_s)
+        group = self._open.get(key)
+        rx_p = frames.geodetic_to_enu_point(
+            self.origin, obs.rx_lat_deg, obs.rx_lon_deg, obs.rx_alt_m
+        )
+        claimed_geo = (obs.claimed_lat_deg, obs.claimed_lon_deg, obs.claimed_alt_m)
+        if group is not None and group.claimed_geodetic == claimed_geo:
+            claimed_p = group.claimed_p_enu_m  # every receiver reports the same claim
+        else:
+            claimed_p = frames.geodetic_to_enu_point(self.origin, *claimed_geo)
         limit = self.config.max_distance_m
         if math.hypot(*rx_p) > limit or math.hypot(*claimed_p) > limit:
             return RejectReason.DISTANCE_RANGE
-        key = group_key(obs.uas_id, obs.rid_timestamp_s)
         if key in self._closed:
             return RejectReason.LATE
-        group = self._open.get(key)
         if group is None:
             if len(self._open) >= self.config.max_open_groups:
                 return RejectReason.TOO_MANY_GROUPS
             velocity = claimed_velocity_enu(obs)
-            group = _Group(obs.uas_id, obs.rid_timestamp_s, now_s, claimed_p, velocity)
+            group = _Group(obs.uas_id, obs.rid_timestamp_s, now_s, claimed_geo, claimed_p, velocity)
             self._open[key] = group
         elif rx_sysid in group.receptions:
             return RejectReason.DUPLICATE

@@ -132,6 +132,19 @@ def test_a_duplicate_reception_is_dropped_and_counted() -> None:
     assert ingest.counters.rejected == {RejectReason.DUPLICATE: 1}
 
 
+def test_a_later_report_claiming_elsewhere_is_checked_on_its_own_claim() -> None:
+    """Reports of one broadcast share its claim, and the ingest converts it once; a report
+    whose claim differs is converted and range-checked by itself."""
+    ingest = Ingest(GcsConfig(), ORIGIN)
+    assert ingest.add(1.0, 3, observation()) is None
+    far = observation(claimed_enu_m=(150_000.0, 0.0, 60.0))
+    assert ingest.add(1.0, 4, far) is RejectReason.DISTANCE_RANGE
+    assert ingest.add(1.0, 5, observation()) is None
+    (tx,) = ingest.close_due(1.3)
+    assert tx.rx_sysid.tolist() == [3, 5]
+    np.testing.assert_allclose(tx.claimed_p_enu_m, [300.0, 400.0, 60.0], atol=1e-6)
+
+
 def test_receptions_arriving_over_several_ticks_are_grouped_per_transmission() -> None:
     ingest = Ingest(GcsConfig(group_window_s=0.3), ORIGIN)
     arrivals = [  # (GCS time, receiver, id, rid timestamp)
