@@ -311,11 +311,7 @@ def update(
             return None
         results.append(res)
     log_lik = np.stack([r.log_likelihood for r in results], axis=1)  # (H, M)
-    log_w = np.log(np.maximum(state.mu, 1e-300)) + log_lik
-    top = log_w.max(axis=1, keepdims=True)
-    w = np.exp(log_w - top)
-    total = top[:, 0] + np.log(w.sum(axis=1))
-    mu = w / w.sum(axis=1, keepdims=True)
+    mu, total = imm_kernels.mode_probabilities(np.ascontiguousarray(state.mu), log_lik)
     modes = tuple([Gaussian(r.x, r.P) for r in results])
     return ImmState(modes, mu, state.t_s), total
 

@@ -7,6 +7,7 @@ few 10-state IMMs is predicted in microseconds instead of ~100 small numpy calls
     c_j = max(sum_i Pi_ij mu_i, 1e-300),   w_ij = Pi_ij mu_i / c_j
     x0_j = sum_i w_ij T_j(x_i),   P0_j = sum_i w_ij (T_j(P_i) + (T_j(x_i) - x0_j)(..)^T)
     x_j = F_j x0_j,   P_j = F_j P0_j F_j^T + Q_j,   mu_j = c_j / sum_l c_l
+    update: mu_j <- c_j Lambda_j / sum_l c_l Lambda_l   (in logs)
     merge: x = sum_j mu_j T(x_j),   P = sum_j mu_j (T(P_j) + (T(x_j) - x)(..)^T)
 
 A conversion T (``motion_models.convert``) is given as an index map ``src``: row r of the
@@ -18,6 +19,7 @@ arrays (one per mode; the sizes differ). After editing, delete
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any, TypeVar, cast
 
@@ -29,7 +31,7 @@ FloatArray = NDArray[np.float64]
 IndexArray = NDArray[np.int64]
 _F = TypeVar("_F", bound=Callable[..., Any])
 
-__all__ = ["accumulate", "merge_batch", "predict_batch"]
+__all__ = ["accumulate", "merge_batch", "mode_probabilities", "predict_batch"]
 
 
 def _jit(fn: _F) -> _F:
@@ -158,3 +160,25 @@ def merge_batch(
         x, P = _mixed_start(xs, Ps, h, mu[h], src, lift_var, n)
         x_out[h] = x
         P_out[h] = P
+
+
+@_jit
+def mode_probabilities(mu: FloatArray, log_lik: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Step 6 in logs for every batch item: mu_j <- c_j Lambda_j / sum_l c_l Lambda_l, and
+    log sum_j c_j Lambda_j; ``mu`` (H, M) the predicted probabilities, ``log_lik`` (H, M)."""
+    H, M = mu.shape
+    out = np.empty((H, M))
+    total = np.empty(H)
+    for h in range(H):
+        top = -np.inf
+        for j in range(M):
+            out[h, j] = math.log(max(mu[h, j], 1e-300)) + log_lik[h, j]
+            top = max(top, out[h, j])
+        s = 0.0
+        for j in range(M):
+            out[h, j] = math.exp(out[h, j] - top)
+            s += out[h, j]
+        total[h] = top + math.log(s)
+        for j in range(M):
+            out[h, j] /= s
+    return out, total

@@ -256,8 +256,9 @@ def iplf_final(
 
 @_jit
 def gate(
-    mean: FloatArray,
-    cov: FloatArray,
+    x: FloatArray,
+    P: FloatArray,
+    i_pt: int,
     rx: FloatArray,
     z: FloatArray,
     s2: float,
@@ -265,7 +266,15 @@ def gate(
     loss: float,
     gate_sigma: float,
 ) -> NDArray[np.bool_]:
-    """|z_i - (A m + b)_i| <= gate_sigma sqrt(S_ii), S_ii = (A C A^T + Omega)_ii + R_i."""
+    """|z_i - (A m + b)_i| <= gate_sigma sqrt(S_ii), S_ii = (A C A^T + Omega)_ii + R_i, with
+    (m, C) the observed block (p, Pt at ``i_pt``) of the state (x (n,), P (n, n))."""
+    idx = np.array([0, 1, 2, i_pt])
+    mean = np.empty(4)
+    cov = np.empty((4, 4))
+    for r in range(4):
+        mean[r] = x[idx[r]]
+        for c in range(4):
+            cov[r, c] = P[idx[r], idx[c]]
     A, b, Omega = _slr(mean, cov, rx, loss)
     Rt = _with_r(Omega, mean, rx, s2, rx2)
     h = A @ mean + b

@@ -202,6 +202,8 @@ class EstimationPipeline:
     ) -> list[AlertChange]:
         if uas_id in self._alerts or not self._detectors_may_alert():
             return []
+        if not any(r.decision for r in results):
+            return []  # the usual case: no detector decided
         by_detector = {r.detector: r for r in results}
         for det in self.config.detection.alerting:
             r = by_detector.get(det)

@@ -110,10 +110,10 @@ def gate_receptions(
     deviations, S_ii = (A P_uu A^T + Omega)_ii + R_i from the SLR over the prior. When more
     than ``max_fraction`` would go, the estimate is the suspect, not the receptions: keep
     them all."""
-    idx = observed(i_pt)
     keep: NDArray[np.bool_] = iplf_kernels.gate(
-        np.ascontiguousarray(prior.x[0, idx]),
-        np.ascontiguousarray(prior.P[0][idx[:, None], idx]),
+        np.ascontiguousarray(prior.x[0]),
+        np.ascontiguousarray(prior.P[0]),
+        i_pt,
         np.ascontiguousarray(meas.rx),
         np.ascontiguousarray(meas.rssi),
         meas.sigma_db**2,
