@@ -66,6 +66,8 @@ ENU_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 _UPPER = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
 _LINK_FIELDS = tuple(f.name for f in dataclasses.fields(LinkCounters) if f.type == "int")
 _EPS_S = 1e-9
+#: How a detector is named in the log (10,000 detector records in a 120 s, 16-aircraft run).
+_DETECTOR_NAMES = {d: d.name.lower() for d in m.RidsafeDetector}
 
 Datagrams = list[tuple[str, bytes]]
 Cov6 = tuple[float, float, float, float, float, float]
@@ -453,7 +455,7 @@ class Gcs:
                 now_s,
                 {
                     "uas_id": result.uas_id,
-                    "detector": result.detector.name.lower(),
+                    "detector": _DETECTOR_NAMES[result.detector],
                     "statistic": float(result.statistic),
                     "threshold": float(result.threshold),
                     "decision": bool(result.decision),
@@ -516,7 +518,7 @@ def _alert(t_s: float, change: AlertChange) -> m.SpoofAlert:
 def _alert_record(change: AlertChange) -> dict[str, object]:
     return {
         "uas_id": change.uas_id,
-        "detector": change.detector.name.lower(),
+        "detector": _DETECTOR_NAMES[change.detector],
         "statistic": float(change.statistic),
         "threshold": float(change.threshold),
         "state": change.state.name.lower(),
