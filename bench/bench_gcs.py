@@ -18,6 +18,11 @@ scenario's depots), over ``--seeds`` seeds:
 
 Run: ``.venv/bin/python bench/bench_gcs.py [--mc] [--seeds 30]``
 
+Each compute line also says how many full (generation 2) garbage collections ran meanwhile
+and the longest pause: one walks every object of this process (the pre-generated traffic
+included) and, when it lands in an update, sets that update's time (the max). It is
+reported, not excluded.
+
 BLAS threads: the pipeline's matrices are tiny; OpenBLAS's worker threads only add latency,
 and on a loaded 2-core machine a call that waits for a preempted worker stalls a whole
 scheduler tick (4 ms). This script sets ``OPENBLAS_NUM_THREADS=1`` unless the environment
@@ -31,6 +36,7 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse
+import gc
 import math
 import sys
 import time
@@ -63,12 +69,39 @@ def _percentiles(samples: list[float]) -> str:
     )
 
 
+class _FullCollections:
+    """Python's full (generation 2) garbage collections and their pauses while installed:
+    one can land inside a timed update and set its max (it walks every tracked object of
+    the process, this script's pre-generated traffic included). Reported, not excluded."""
+
+    def __init__(self) -> None:
+        self.pauses_s: list[float] = []
+        self._start = 0.0
+        gc.callbacks.append(self._on_gc)
+
+    def _on_gc(self, phase: str, info: dict[str, int]) -> None:
+        if info["generation"] != 2:
+            return
+        if phase == "start":
+            self._start = time.perf_counter()
+        else:
+            self.pauses_s.append(time.perf_counter() - self._start)
+
+    def close(self) -> str:
+        gc.callbacks.remove(self._on_gc)
+        if not self.pauses_s:
+            return "no full garbage collection"
+        longest = max(self.pauses_s) * 1e3
+        return f"{len(self.pauses_s)} full garbage collection(s), longest {longest:.1f} ms"
+
+
 def bench_compute(seeds: int) -> None:
     EstimationPipeline()  # load the compiled kernels once, as a GCS does at start
     for aligned in (False, True):
         for start in ("airborne", "depots"):
             samples: list[float] = []
             per_run: list[float] = []
+            collections = _FullCollections()
             for seed in range(seeds):
                 scene = Scene(seed=seed, n_receivers=16, start=start, aligned_phases=aligned)
                 compute = run_pipeline(make_traffic(scene), PipelineConfig()).compute_s
@@ -77,7 +110,8 @@ def bench_compute(seeds: int) -> None:
             phases = "aligned phases" if aligned else "random phases "
             print(
                 f"16 aircraft + spoofer, {start:8s}, {phases}: {_percentiles(samples)}; "
-                f"median of per-run p99 {np.median(per_run) * 1e3:.3f} ms"
+                f"median of per-run p99 {np.median(per_run) * 1e3:.3f} ms; "
+                f"{collections.close()}"
             )
 
 
