@@ -73,6 +73,7 @@ __all__ = [
     "course_deg_from_velocity_ned",
     "ecef_to_geodetic",
     "enu_to_geodetic",
+    "enu_to_geodetic_point",
     "enu_to_ned",
     "geodetic_to_ecef",
     "geodetic_to_enu",
@@ -222,6 +223,39 @@ def geodetic_to_enu_point(
         r[1][0] * d[0] + r[1][1] * d[1] + r[1][2] * d[2],
         r[2][0] * d[0] + r[2][1] * d[1] + r[2][2] * d[2],
     )
+
+
+def enu_to_geodetic_point(
+    origin: GeodeticOrigin, east_m: float, north_m: float, up_m: float
+) -> tuple[float, float, float]:
+    """One point, local ENU metres about ``origin`` -> (lat_deg, lon_deg, alt_m): the same
+    equations as :func:`enu_to_geodetic` (Heikkinen) in plain floats, ~10x faster for a
+    single point (a planner target, a region centre)."""
+    p0, r = _origin_frame_tuples(origin)
+    x = r[0][0] * east_m + r[1][0] * north_m + r[2][0] * up_m + p0[0]
+    y = r[0][1] * east_m + r[1][1] * north_m + r[2][1] * up_m + p0[1]
+    z = r[0][2] * east_m + r[1][2] * north_m + r[2][2] * up_m + p0[2]
+    a, b, e2 = WGS84_A_M, _WGS84_B_M, WGS84_E2
+    r_xy = math.hypot(x, y)
+    f_term = 54.0 * b * b * z * z
+    g = r_xy * r_xy + (1.0 - e2) * z * z - e2 * (a * a - b * b)
+    c = e2 * e2 * f_term * r_xy * r_xy / g**3
+    s = (1.0 + c + math.sqrt(c * c + 2.0 * c)) ** (1.0 / 3.0)
+    k = s + 1.0 + 1.0 / s
+    pp = f_term / (3.0 * k * k * g * g)
+    q = math.sqrt(1.0 + 2.0 * e2 * e2 * pp)
+    r0_sq = (
+        0.5 * a * a * (1.0 + 1.0 / q)
+        - pp * (1.0 - e2) * z * z / (q * (1.0 + q))
+        - 0.5 * pp * r_xy * r_xy
+    )
+    r0 = -pp * e2 * r_xy / (1.0 + q) + math.sqrt(max(r0_sq, 0.0))
+    u = math.hypot(r_xy - e2 * r0, z)
+    v = math.sqrt((r_xy - e2 * r0) ** 2 + (1.0 - e2) * z * z)
+    z0 = b * b * z / (a * v)
+    alt = u * (1.0 - b * b / (a * v))
+    lat = math.degrees(math.atan2(z + _WGS84_EP2 * z0, r_xy))
+    return lat, math.degrees(math.atan2(y, x)), alt
 
 
 @functools.cache

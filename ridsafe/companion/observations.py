@@ -331,9 +331,9 @@ class OwnTelemetry:
     def to_geodetic(self, p_ned_m: m.Vec3) -> tuple[float, float, float]:
         if self.home_origin is None or self.home is None:
             raise LookupError("no HOME_POSITION yet")
-        rel = np.asarray(p_ned_m) - np.asarray(self.home.p_ned_m)
-        lat, lon, alt = frames.ned_to_geodetic(self.home_origin, rel)
-        return float(lat), float(lon), float(alt)
+        hn, he, hd = self.home.p_ned_m
+        north, east, down = p_ned_m[0] - hn, p_ned_m[1] - he, p_ned_m[2] - hd
+        return frames.enu_to_geodetic_point(self.home_origin, east, north, -down)
 
     def rid_state(
         self, now_s: float, emergency: bool, max_extrapolation_s: float

@@ -92,14 +92,15 @@ def region_message(
     origin: GeodeticOrigin, region: UnsafeRegion, now_s: float, validity_s: float, flags: int
 ) -> m.UnsafeRegionMsg:
     """The wire form of one unsafe region (see the module docstring)."""
-    lat, lon, alt = frames.enu_to_geodetic(origin, region.center_enu_m)
+    east, north, up = (float(c) for c in region.center_enu_m)
+    lat, lon, alt = frames.enu_to_geodetic_point(origin, east, north, up)
     v = ENU_NED @ np.asarray(region.v_enu_m_s, dtype=np.float64)
     return m.UnsafeRegionMsg(
         t_s=region.t_s,
         valid_until_s=min(region.valid_until_s, now_s + validity_s),
-        center_lat_deg=float(lat),
-        center_lon_deg=float(lon),
-        center_alt_m=float(alt),
+        center_lat_deg=lat,
+        center_lon_deg=lon,
+        center_alt_m=alt,
         cov_ned_m2=cov_enu_to_ned(region.cov_enu_m2),
         v_ned_m_s=(float(v[0]), float(v[1]), float(v[2])),
         chi2_threshold=region.chi2_threshold,

@@ -28,6 +28,7 @@ from ridsafe.common.frames import (
     course_deg_from_velocity_ned,
     ecef_to_geodetic,
     enu_to_geodetic,
+    enu_to_geodetic_point,
     enu_to_ned,
     geodetic_to_ecef,
     geodetic_to_enu,
@@ -375,3 +376,15 @@ def test_single_point_conversion_equals_the_vectorised_one(
     point = (max(-90.0, min(90.0, lat + d_lat)), lon + d_lon, alt)
     expected = geodetic_to_enu(origin, *point)
     assert np.allclose(geodetic_to_enu_point(origin, *point), expected, atol=1e-6, rtol=0)
+
+
+@settings(max_examples=200, deadline=None)
+@given(origin=st.sampled_from(ORIGINS), offset=local_offsets)
+def test_single_point_inverse_equals_the_vectorised_one(
+    origin: GeodeticOrigin, offset: tuple[float, float, float]
+) -> None:
+    lat, lon, alt = enu_to_geodetic_point(origin, *offset)
+    want_lat, want_lon, want_alt = enu_to_geodetic(origin, np.array(offset))
+    assert lat == pytest.approx(float(want_lat), abs=1e-9)
+    assert abs((lon - float(want_lon) + 180.0) % 360.0 - 180.0) <= 1e-9  # the same meridian
+    assert alt == pytest.approx(float(want_alt), abs=1e-6)
