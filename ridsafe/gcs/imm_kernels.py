@@ -31,7 +31,13 @@ FloatArray = NDArray[np.float64]
 IndexArray = NDArray[np.int64]
 _F = TypeVar("_F", bound=Callable[..., Any])
 
-__all__ = ["accumulate", "merge_batch", "mode_probabilities", "predict_batch"]
+__all__ = [
+    "accumulate",
+    "merge_batch",
+    "mixture_moments",
+    "mode_probabilities",
+    "predict_batch",
+]
 
 
 def _jit(fn: _F) -> _F:
@@ -77,6 +83,23 @@ def accumulate(
 
 
 @_jit
+def mixture_moments(
+    weights: FloatArray, x: FloatArray, P: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """The moments of a weighted batch of Gaussians, the covariance symmetrised;
+    ``x`` (H, n), ``P`` (H, n, n) -> (n,), (n, n)."""
+    H, n = x.shape
+    mean = np.zeros(n)
+    for h in range(H):
+        for r in range(n):
+            mean[r] += weights[h] * x[h, r]
+    cov = np.zeros((n, n))
+    for h in range(H):
+        accumulate(weights[h], x[h], P[h], mean, cov)
+    return mean, 0.5 * (cov + cov.T)
+
+
+@_jit
 def _mixed_start(
     xs: Any,
     Ps: Any,
@@ -91,15 +114,9 @@ def _mixed_start(
     M = weights.shape[0]
     convs_x = np.empty((M, n))
     convs_P = np.empty((M, n, n))
-    x0 = np.zeros(n)
     for i in range(M):
         _convert(xs[i], Ps[i], h, src[i], lift_var, convs_x[i], convs_P[i])
-        for r in range(n):
-            x0[r] += weights[i] * convs_x[i, r]
-    P0 = np.zeros((n, n))
-    for i in range(M):
-        accumulate(weights[i], convs_x[i], convs_P[i], x0, P0)
-    return x0, 0.5 * (P0 + P0.T)
+    return mixture_moments(weights, convs_x, convs_P)
 
 
 @_jit

@@ -5,6 +5,7 @@ for a merge; in numpy each is a dozen calls on arrays of a few 3 x 3 blocks. Her
 tests compare each against numpy)::
 
     moments:      x = sum_h w_h x_h,   P = sum_h w_h (P_h + (x_h - x)(x_h - x)^T)
+                  (shared with the IMM's mixing: ``imm_kernels.mixture_moments``)
     curvature:    (20/ln10) lambda_max(P_h,pos) / (2 max(d_min,h^2, 1)),  d_min,h the distance
                   from x_h,pos to the nearest receiver; and the principal axis e_h
     pairs:        m2_ab = (p_a - p_b)^T (C_a + C_b)^-1 (p_a - p_b) for a < b, inf elsewhere
@@ -24,7 +25,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from ridsafe.gcs.imm_kernels import accumulate
+from ridsafe.gcs.imm_kernels import mixture_moments
 
 FloatArray = NDArray[np.float64]
 _F = TypeVar("_F", bound=Callable[..., Any])
@@ -36,23 +37,6 @@ DB_PER_LN = 20.0 / math.log(10.0)
 
 def _jit(fn: _F) -> _F:
     return cast(_F, njit(cache=True)(fn))
-
-
-@_jit
-def mixture_moments(
-    weights: FloatArray, x: FloatArray, P: FloatArray
-) -> tuple[FloatArray, FloatArray]:
-    """The moments of a weighted batch of Gaussians, the covariance symmetrised;
-    ``x`` (H, n), ``P`` (H, n, n) -> (n,), (n, n)."""
-    H, n = x.shape
-    mean = np.zeros(n)
-    for h in range(H):
-        for r in range(n):
-            mean[r] += weights[h] * x[h, r]
-    cov = np.zeros((n, n))
-    for h in range(H):
-        accumulate(weights[h], x[h], P[h], mean, cov)
-    return mean, 0.5 * (cov + cov.T)
 
 
 @_jit
