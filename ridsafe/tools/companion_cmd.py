@@ -168,7 +168,7 @@ def run(args: argparse.Namespace) -> int:
         return 1
     for sysid, conn in connections.items():
         print(f"companion {sysid}: autopilot {conn.autopilot}, gcs {conn.gcs}", flush=True)
-    runtime.wait_for_start(args)
+    runtime.wait_for_start(args, f"companion {args.vehicle}")
     restore = runtime.stop_on_sigterm(app.stop)
     try:
         app.run(until_s=args.duration)

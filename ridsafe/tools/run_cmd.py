@@ -28,7 +28,7 @@ from ridsafe.common.errors import RidsafeError
 from ridsafe.common.udp import parse_connection_string
 from ridsafe.companion.planners import PLANNERS
 from ridsafe.tools import assemble, live, runtime
-from ridsafe.tools.lockstep import run_lockstep
+from ridsafe.tools.lockstep import run_lockstep, warm_up
 from ridsafe.tools.metrics import compute_metrics
 from ridsafe.tools.scenario import ScenarioFile, with_aircraft
 
@@ -133,6 +133,9 @@ def _live(
 
     duration = loaded.scenario.duration_s
     parts = out / "parts"
+    print("compiled kernels: ", end="", file=sys.stderr, flush=True)
+    warm_s = warm_up(loaded, planner)
+    print(f"ready in {warm_s:.1f} s", file=sys.stderr, flush=True)
     t0 = time.time() + live.STARTUP_MARGIN_S
     children = _children(loaded, planner, out, scenario_path, speed, t0)
     own = parts / "run.mcap"

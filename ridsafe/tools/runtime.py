@@ -9,6 +9,7 @@ take plain objects.
 from __future__ import annotations
 
 import argparse
+import logging
 import signal
 import time
 from collections.abc import Callable
@@ -22,6 +23,8 @@ from ridsafe.common.frames import GeodeticOrigin
 from ridsafe.common.logsink import LogSink, NullSink
 from ridsafe.common.runner import RunnerClock
 from ridsafe.tools.scenario import ScenarioFile, load_scenario_file
+
+logger = logging.getLogger(__name__)
 
 
 def add_scenario_arguments(parser: argparse.ArgumentParser) -> None:
@@ -66,10 +69,25 @@ def make_clock(args: argparse.Namespace) -> RunnerClock:
     return EpochClock(args.speed, args.t0_unix)
 
 
-def wait_for_start(args: argparse.Namespace) -> None:
-    """Sleep until ``--t0-unix`` (processes of a live run start their cores together)."""
-    if args.t0_unix is not None:
-        time.sleep(max(0.0, args.t0_unix - time.time()))
+LATE_START_WARNING_S = 0.5  # wall seconds after --t0-unix
+
+
+def wait_for_start(args: argparse.Namespace, app: str) -> None:
+    """Sleep until ``--t0-unix`` (processes of a live run start their cores together); an
+    ``app`` that is ready only after it says so, with how much of the run it missed."""
+    if args.t0_unix is None:
+        return
+    wait_s = args.t0_unix - time.time()
+    if wait_s >= 0.0:
+        time.sleep(wait_s)
+    elif -wait_s > LATE_START_WARNING_S:
+        logger.warning(
+            "%s: ready %.1f s (wall) after the run's start instant; the first %.1f s of sim "
+            "time ran without it",
+            app,
+            -wait_s,
+            -wait_s * args.speed,
+        )
 
 
 def open_sink(path: Path | None, origin: GeodeticOrigin, foxglove: bool = True) -> LogSink:

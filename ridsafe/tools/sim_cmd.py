@@ -65,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
     for line in describe_ports(backend, loaded.sim.ports):
         print(line)
     print(f"running at {args.speed:g}x real time; Ctrl-C stops", flush=True)
-    runtime.wait_for_start(args)
+    runtime.wait_for_start(args, "sim")
     runner = UdpRunner(backend, endpoints, runtime.make_clock(args), loaded.run.live_tick_s)
     restore = runtime.stop_on_sigterm(runner.stop)
     try:

@@ -40,6 +40,9 @@ def test_a_short_fast_live_run_flies_logs_and_reports(tmp_path: Path) -> None:
     proc = _run(tmp_path / "out", "--speed", "6", "--duration", "40")
     output, _ = proc.communicate(timeout=120)
     assert proc.returncode == 0, output
+    assert "compiled kernels: ready in" in output
+    child_logs = "".join(p.read_text() for p in (tmp_path / "out" / "logs").glob("*.log"))
+    assert "after the run's start instant" not in child_logs  # every process was in time
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["status"] == "completed"
     records = list(read_records(tmp_path / "out" / "run.mcap"))
