@@ -94,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"GCS listening on udpin:{host}:{port} ({signed}); companions send there")
     print(f"sim time: {_describe_clock(gcs, args.t0_unix)}")
     print(f"running at {args.speed:g}x real time; Ctrl-C stops", flush=True)
+    runtime.wait_for_start(args, "gcs")
     restore = runtime.stop_on_sigterm(runner.stop)
     try:
         runner.run(until_s=args.duration, on_tick=_Progress(gcs, runner))
