@@ -112,16 +112,21 @@ def run_lockstep(
     planner: str,
     log_path: Path,
     on_progress: Callable[[float], None] | None = None,
+    recorder_process: bool = True,
 ) -> RunResult:
     """Fly the scenario for its duration, logging to ``log_path``; Ctrl-C ends it early
-    with a valid log."""
+    with a valid log. ``recorder_process``: write the log from a child process (on the other
+    core; the same file), else from this one (a sweep's workers already use every core)."""
     from ridsafe.tools.recorder import McapRecorder  # noqa: PLC0415 (mcap only here)
+    from ridsafe.tools.recorder_process import RecorderProcess  # noqa: PLC0415
 
     log_path.parent.mkdir(parents=True, exist_ok=True)
     wall_start = time.perf_counter()
     status, reason = "completed", ""
     foxglove = loaded.run.foxglove_channels
-    with McapRecorder(log_path, origin=loaded.scenario.origin, foxglove=foxglove) as recorder:
+    origin = loaded.scenario.origin
+    sink = RecorderProcess if recorder_process else McapRecorder
+    with sink(log_path, origin=origin, foxglove=foxglove) as recorder:
         assemble.log_meta(recorder, assemble.run_meta(loaded, "lockstep", planner))
         run = build(loaded, planner, recorder)
         duration = loaded.scenario.duration_s

@@ -110,7 +110,11 @@ def _fly(base: ScenarioFile, spec: RunSpec, run_dir: Path) -> RunOutcome:
     worker = f"{socket.gethostname()}:{os.getpid()}"
     started = time.perf_counter()
     try:
-        result = run_lockstep(scenario_for(base, spec), spec.planner, run_dir / LOG_FILE)
+        # Recorder in this process: the engine already runs a worker on every core.
+        log_path = run_dir / LOG_FILE
+        result = run_lockstep(
+            scenario_for(base, spec), spec.planner, log_path, recorder_process=False
+        )
         metrics = run_metrics(result.log_path)
     except Exception:  # a failed run is a result, not the end of the sweep
         wall = time.perf_counter() - started

@@ -3,6 +3,11 @@
 from __future__ import annotations
 
 import dataclasses
+import os
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -13,6 +18,7 @@ from ridsafe.tools.metrics import compute_metrics
 from ridsafe.tools.recorder import read_records
 from ridsafe.tools.scenario import ScenarioFile, load_scenario_file
 
+ROOT = Path(__file__).resolve().parents[2]
 TIMING_KEYS = {"wall_clock_s", "gcs_compute_s", "gcs_update_p99_ms", "planner_decision_p99_ms"}
 
 
@@ -74,10 +80,11 @@ def test_the_spoofer_is_heard_reported_detected_and_tracked(default_run: Path) -
 
 
 def test_the_same_seed_gives_the_same_metrics_and_log_content(tmp_path: Path) -> None:
+    """Also whichever process writes the log: a child (the default) or the run's own."""
     loaded = _default(duration_s=30.0)
     logs = [tmp_path / f"{k}.mcap" for k in range(2)]
-    for log in logs:
-        run_lockstep(loaded, "straight-line", log)
+    for log, recorder_process in zip(logs, (True, False), strict=True):
+        run_lockstep(loaded, "straight-line", log, recorder_process=recorder_process)
     first, second = (compute_metrics(log) for log in logs)
     assert {k: v for k, v in first.items() if k not in TIMING_KEYS} == {
         k: v for k, v in second.items() if k not in TIMING_KEYS
@@ -88,3 +95,26 @@ def test_the_same_seed_gives_the_same_metrics_and_log_content(tmp_path: Path) ->
         return [(t, s, r) for t, s, r in read_records(log) if t not in timing]
 
     assert content(logs[0]) == content(logs[1])
+
+
+def test_ctrl_c_ends_the_run_and_its_recorder_with_a_valid_log(tmp_path: Path) -> None:
+    """The terminal sends SIGINT to the whole process group: the run and the recorder's
+    child process. The run stops, logs how it ended, and nothing is left running."""
+    out = tmp_path / "out"
+    argv = [sys.executable, "-m", "ridsafe.tools.cli", "run", "--mode", "lockstep"]
+    argv += ["--out", str(out), "--aircraft", "16", "--duration", "600"]
+    proc = subprocess.Popen(
+        argv, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        start_new_session=True,
+    )  # fmt: skip
+    time.sleep(6.0)
+    os.killpg(proc.pid, signal.SIGINT)
+    output, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 1, output
+    records = list(read_records(out / "run.mcap"))
+    (end,) = [r for t, _, r in records if t == topics.RUN_END]
+    assert end["status"] == "interrupted" and 0.0 < end["sim_time_s"] < 600.0
+    assert any(t == topics.TRUTH for t, _, _ in records)
+    pgrep = ["pgrep", "-f", str(out)]
+    leftovers = subprocess.run(pgrep, capture_output=True, text=True, check=False)
+    assert leftovers.stdout.strip() == ""
