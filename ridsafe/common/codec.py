@@ -28,6 +28,7 @@ from typing import Any, NamedTuple
 from ridsafe.common import messages as m
 from ridsafe.common.dialect import ridsafe_v20 as mav
 from ridsafe.common.errors import WireError
+from ridsafe.common.frozen import quick_init
 
 logger = logging.getLogger(__name__)
 
@@ -42,6 +43,7 @@ ODID_ID_LEN = 20
 SIGNING_EPOCH_UNIX_S = 1420070400
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class Received:
     """One accepted MAVLink message."""

@@ -17,6 +17,8 @@ import enum
 from dataclasses import dataclass
 from typing import TypeAlias
 
+from ridsafe.common.frozen import quick_init
+
 Vec3: TypeAlias = tuple[float, float, float]
 
 
@@ -191,6 +193,7 @@ class RegionFlags(enum.IntFlag):
 # --- Autopilot link (standard common.xml messages) ------------------------------------------
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class Heartbeat:
     mav_type: int
@@ -204,6 +207,7 @@ class Heartbeat:
         return bool(self.base_mode & MavModeFlag.SAFETY_ARMED)
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class CommandLong:
     target_system: int
@@ -213,6 +217,7 @@ class CommandLong:
     params: tuple[float, float, float, float, float, float, float]
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class CommandAck:
     command: int
@@ -223,6 +228,7 @@ class CommandAck:
     result_param2: int = 0
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class SetMode:
     """Legacy SET_MODE message (pymavlink's ``set_mode`` still sends it)."""
@@ -232,6 +238,7 @@ class SetMode:
     custom_mode: int
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class SetPositionTargetLocalNed:
     time_boot_s: float
@@ -246,6 +253,7 @@ class SetPositionTargetLocalNed:
     yaw_rate_rad_s: float
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class GlobalPositionInt:
     time_boot_s: float
@@ -257,6 +265,7 @@ class GlobalPositionInt:
     heading_deg: float | None
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class LocalPositionNed:
     time_boot_s: float
@@ -264,6 +273,7 @@ class LocalPositionNed:
     v_ned_m_s: Vec3
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class Attitude:
     time_boot_s: float
@@ -273,6 +283,7 @@ class Attitude:
     rates_frd_rad_s: Vec3
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class SysStatus:
     sensors_present: int
@@ -283,6 +294,7 @@ class SysStatus:
     battery_remaining_pct: int | None
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class HomePosition:
     lat_deg: float
@@ -291,12 +303,14 @@ class HomePosition:
     p_ned_m: Vec3
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class SystemTime:
     time_unix_s: float
     time_boot_s: float
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class StatusText:
     severity: int
@@ -306,6 +320,7 @@ class StatusText:
 # --- Open Drone ID (common.xml OPEN_DRONE_ID_*) -------------------------------------------
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class OdidBasicId:
     id_or_mac: bytes
@@ -318,6 +333,7 @@ class OdidBasicId:
         return self.uas_id.rstrip(b"\x00").decode("ascii", errors="replace")
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class OdidLocation:
     id_or_mac: bytes
@@ -339,6 +355,7 @@ class OdidLocation:
     timestamp_accuracy: int
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class OdidSystem:
     id_or_mac: bytes
@@ -356,6 +373,7 @@ class OdidSystem:
     timestamp_s: int
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class OdidSystemUpdate:
     operator_lat_deg: float | None
@@ -364,6 +382,7 @@ class OdidSystemUpdate:
     timestamp_s: int
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class OdidOperatorId:
     id_or_mac: bytes
@@ -371,6 +390,7 @@ class OdidOperatorId:
     operator_id: str
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class OdidSelfId:
     id_or_mac: bytes
@@ -378,12 +398,14 @@ class OdidSelfId:
     description: str
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class OdidArmStatus:
     status: int
     error: str
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class OdidRaw:
     """An Open Drone ID message passed through as its MAVLink field values
@@ -396,6 +418,7 @@ class OdidRaw:
 # --- ridsafe dialect (ids 61000-61099) --------------------------------------------------
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class RidRssi:
     """Signal strength of the Remote ID frame handed over just before this message."""
@@ -406,6 +429,7 @@ class RidRssi:
     odid_message_type: int
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class Observation:
     """One received RID location broadcast with its RSSI, as reported to the GCS."""
@@ -425,6 +449,7 @@ class Observation:
     uas_id: str
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class UnsafeRegionMsg:
     """Chance-constrained ellipsoid (x - c)^T P^-1 (x - c) <= chi2_threshold."""
@@ -443,6 +468,7 @@ class UnsafeRegionMsg:
     uas_id: str
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class SpoofAlert:
     t_s: float
@@ -453,12 +479,14 @@ class SpoofAlert:
     uas_id: str
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class LockstepTick:
     t_s: float
     tick: int
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class LockstepDone:
     t_s: float

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from ridsafe.common import codec, f3411, frames
 from ridsafe.common import messages as m
 from ridsafe.common.errors import RidsafeError, WireError
+from ridsafe.common.frozen import quick_init
 
 ODID_EPOCH_UNIX_S = 1_546_300_800  # 2019-01-01T00:00:00Z
 RID_LOCATION_PERIOD_S = 1.0
@@ -136,6 +137,7 @@ def operator_id(operator: str) -> m.OdidOperatorId:
 MESSAGE_PACK_NAME = f3411.MessageType.MESSAGE_PACK.mavlink_name
 
 
+@quick_init
 @dataclass(frozen=True)
 class PackContents:
     """The messages read from a message pack, and why the others could not be read."""

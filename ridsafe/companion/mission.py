@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 from typing import cast
 
 from ridsafe.common import messages as m
+from ridsafe.common.frozen import quick_init
 from ridsafe.common.messages import CopterMode, MavCmd, MavModeFlag, MavResult
 from ridsafe.companion.config import AUTOPILOT_COMPONENT, CompanionConfig, OnArrival
 
@@ -87,6 +88,7 @@ class Trigger(enum.Enum):
     DISARMED = "the autopilot reports disarmed"
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class FlightStatus:
     """What the mission needs to know of the vehicle at one step (None: not known yet).

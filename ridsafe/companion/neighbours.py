@@ -18,6 +18,7 @@ from collections.abc import Callable, Collection
 from dataclasses import dataclass
 
 from ridsafe.common import messages as m
+from ridsafe.common.frozen import quick_init
 from ridsafe.companion.observations import claimed_id
 from ridsafe.companion.planner_api import Neighbour, Vec3
 
@@ -38,6 +39,7 @@ def velocity_ned(location: m.OdidLocation) -> Vec3:
     return (vn, ve, -speed_v)
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class _Claim:
     lat_deg: float

@@ -40,6 +40,7 @@ from numpy.typing import NDArray
 from ridsafe.common import codec, frames, rid
 from ridsafe.common import messages as m
 from ridsafe.common.errors import RidsafeError
+from ridsafe.common.frozen import quick_init
 from ridsafe.companion.rid import Periodic
 
 __all__ = [
@@ -77,6 +78,7 @@ _PACK = int(m.OdidMessageType.MESSAGE_PACK)
 _PairKey = tuple[bytes, int]  # (id_or_mac, F3411 type of the frame)
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class HeardBroadcast:
     """One received RID LOCATION, its RSSI (None: none came with it) and when it was heard
@@ -233,6 +235,7 @@ def _take_old(
 # --- the receiver's own position ---------------------------------------------------------------
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class ReceiverFix:
     """The latest GLOBAL_POSITION_INT: WGS-84 position, NED velocity, companion time it came."""

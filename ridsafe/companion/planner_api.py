@@ -16,10 +16,13 @@ import enum
 from dataclasses import dataclass
 from typing import Protocol
 
+from ridsafe.common.frozen import quick_init
+
 Vec3 = tuple[float, float, float]
 Mat3 = tuple[Vec3, Vec3, Vec3]
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class Neighbour:
     """Another aircraft as its Remote ID claims it (possibly a liar)."""

@@ -39,6 +39,7 @@ import numpy as np
 
 from ridsafe.common import frames
 from ridsafe.common.frames import GeodeticOrigin
+from ridsafe.common.frozen import quick_init
 from ridsafe.common.messages import Observation, Vec3
 from ridsafe.gcs.config import GcsConfig
 from ridsafe.gcs.pipeline_api import Transmission, readonly
@@ -65,6 +66,7 @@ class RejectReason(enum.Enum):
     TOO_MANY_GROUPS = "too_many_groups"
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class Reception:
     """One receiver's report of one broadcast, in the scenario ENU frame."""

@@ -20,6 +20,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from ridsafe.common.frozen import quick_init
 from ridsafe.common.messages import AlertState, RidsafeDetector
 
 FloatArray = NDArray[np.float64]
@@ -60,6 +61,7 @@ class Transmission:
         return int(self.rx_sysid.shape[0])
 
 
+@quick_init
 @dataclass(frozen=True)
 class DetectorResult:
     """One detector's verdict on one transmission (for logs and ROC curves)."""

@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ridsafe.common import frames
 from ridsafe.common import messages as m
+from ridsafe.common.frozen import quick_init
 from ridsafe.common.messages import CopterMode, MavCmd, MavResult
 from ridsafe.common.messages import PositionTargetMask as Mask
 
@@ -120,6 +121,7 @@ class Mission(Protocol):
         ...
 
 
+@quick_init
 @dataclass(frozen=True)
 class VehicleSample:
     """One vehicle's truth at a tick, in the scenario ENU frame."""
@@ -184,6 +186,7 @@ class TelemetryControl(Protocol):
     def request_once(self, msg_id: int) -> bool: ...
 
 
+@quick_init
 @dataclass(frozen=True)
 class CommandContext:
     now_s: float

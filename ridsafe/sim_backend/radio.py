@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ridsafe.common.frozen import quick_init
 from ridsafe.common.pathloss import received_power_dbm
 from ridsafe.common.scenario import RadioConfig
 
@@ -33,6 +34,7 @@ class Transmission:
     payload: bytes
 
 
+@quick_init
 @dataclass(frozen=True, slots=True)
 class Reception:
     receiver: int
