@@ -13,6 +13,7 @@ velocities cm/s, headings cdeg, times ms/us. Open Drone ID "unknown" sentinels m
 from __future__ import annotations
 
 import binascii
+import collections
 import functools
 import hashlib
 import inspect
@@ -20,7 +21,7 @@ import logging
 import math
 import operator
 import struct
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -953,19 +954,22 @@ def _wire_plan(
     return operator.itemgetter(*xml_of_wire), arrays, chars, defaults
 
 
-class _RawView:
-    """A decoded packet as attributes, the shape the from-MAVLink functions read."""
-
-    def __init__(self, name: str, fieldnames: tuple[str, ...], values: Sequence[Any]) -> None:
-        self._name = name
-        self._fieldnames = fieldnames
-        self.__dict__.update(zip(fieldnames, values, strict=True))
-
-    def get_type(self) -> str:
-        return self._name
-
-    def get_fieldnames(self) -> tuple[str, ...]:
-        return self._fieldnames
+def _view_type(name: str, fieldnames: tuple[str, ...]) -> Callable[[Iterable[Any]], Any]:
+    """The maker of a decoded packet's view: a named tuple of the fields in XML order, read
+    as attributes by the from-MAVLink functions, with pymavlink's ``get_type`` and
+    ``get_fieldnames`` (a tuple is built in one C call, where an object with a ``__dict__``
+    took one store per field)."""
+    fields = collections.namedtuple(f"{name}_view", fieldnames)  # type: ignore[misc]
+    view: Any = type(
+        fields.__name__,
+        (fields,),
+        {
+            "__slots__": (),
+            "get_type": lambda self: name,
+            "get_fieldnames": lambda self: fieldnames,
+        },
+    )
+    return view._make  # type: ignore[no-any-return]
 
 
 @dataclass(frozen=True)
@@ -982,8 +986,10 @@ class _Layout:
     firsts: Callable[[tuple[Any, ...]], Any]
     arrays: tuple[tuple[int, int, int], ...]
     chars: tuple[int, ...]
+    make_view: Callable[[Iterable[Any]], Any]
+    decode: FromMav | None  # the domain message of a view; None: the apps do not use it
 
-    def view(self, payload: bytes) -> _RawView:
+    def view(self, payload: bytes) -> Any:
         if len(payload) < self.unpacker.size:  # MAVLink 2 trims trailing zero bytes
             payload = payload + bytes(self.unpacker.size - len(payload))
         t = self.unpacker.unpack(payload[: self.unpacker.size])
@@ -991,13 +997,13 @@ class _Layout:
         if len(self.slices) == 1:
             firsts = (firsts,)
         if not (self.arrays or self.chars):
-            return _RawView(self.name, self.fieldnames, firsts)
+            return self.make_view(firsts)
         values = list(firsts)
         for index, tip, length in self.arrays:
             values[index] = t[tip : tip + length]
         for index in self.chars:
             values[index] = values[index].rstrip(b"\x00")
-        return _RawView(self.name, self.fieldnames, values)
+        return self.make_view(values)
 
 
 @functools.cache
@@ -1018,6 +1024,8 @@ def _layout(msg_id: int) -> _Layout | None:
         operator.itemgetter(*(tip for tip, _ in slices)),
         tuple((i, tip, length) for i, (tip, length) in enumerate(slices) if length > 1),
         tuple(i for i, (tip, _) in enumerate(slices) if isinstance(firsts[tip], bytes)),
+        _view_type(cls.msgname, tuple(cls.fieldnames)),
+        _FROM_NAME.get(cls.msgname),
     )
 
 
@@ -1200,9 +1208,9 @@ class MavlinkLink:
             return len(packet), None
         key = packet[7:crc_end]  # message id and payload
         message = _decoded.get(key)
-        if message is None:
+        if message is None and layout.decode is not None:
             try:
-                message = from_mavlink(layout.view(packet[_HEADER_LEN:crc_end]))
+                message = layout.decode(layout.view(packet[_HEADER_LEN:crc_end]))
             except (WireError, ValueError, TypeError, UnicodeDecodeError) as exc:
                 self._drop("invalid_value", f"{layout.name} from {src_system}: {exc}")
                 return len(packet), None
