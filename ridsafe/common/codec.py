@@ -866,10 +866,15 @@ def from_mavlink(raw: Any) -> m.Message | None:
 
 
 def odid_fields(message: m.Message) -> tuple[str, dict[str, object]]:
-    """MAVLink message name and field values (the form F3411 encoding works on)."""
-    raw = to_mavlink(message)
-    fields = {name: _plain(getattr(raw, name)) for name in raw.get_fieldnames()}
-    return raw.get_type(), fields
+    """MAVLink message name and field values (the form F3411 encoding works on): the
+    arguments a pymavlink message would be built from, extensions defaulted, char arrays as
+    text and arrays as lists."""
+    wire = _to_wire(message)
+    defaults = _wire_plan(wire.cls)[3]
+    args = wire.args + defaults[len(wire.args) :]
+    names = wire.cls.fieldnames
+    fields = {name: _plain(value) for name, value in zip(names, args, strict=True)}
+    return wire.cls.msgname, fields
 
 
 def message_from_fields(name: str, fields: dict[str, object]) -> m.Message:

@@ -42,6 +42,7 @@ import numpy as np
 from ridsafe.common.errors import RidsafeError, WireError
 
 _F32 = np.float32
+_F32_SAFE = 1e38  # |x| below this rounds to a finite float32 (the largest is ~3.4e38)
 
 
 # --- errors -----------------------------------------------------------------------------------
@@ -114,6 +115,8 @@ class FloatType:
     def check(self, message: str, field: str, value: object) -> np.float32:
         if isinstance(value, bool) or not isinstance(value, int | float | np.number):
             raise F3411FieldError(message, field, f"expected a number, got {value!r}")
+        if type(value) is float and -_F32_SAFE < value < _F32_SAFE:  # no overflow possible
+            return _F32(value)
         with np.errstate(over="ignore"):
             as_f32 = _F32(value)
         if not np.isfinite(as_f32):
@@ -122,6 +125,17 @@ class FloatType:
 
     def to_mavlink(self, value: WireValue) -> object:
         return float(value)
+
+
+def _plain_octets(values: Sequence[object]) -> bytes | None:
+    """``bytes(values)`` when every value is a plain ``int`` in 0..255 (no bools, no numpy
+    scalars: those take the checked path), else None."""
+    if not set(map(type, values)) <= {int}:
+        return None
+    try:
+        return bytes(values)  # type: ignore[arg-type]
+    except ValueError:  # out of 0..255
+        return None
 
 
 @dataclass(frozen=True)
@@ -138,8 +152,11 @@ class BytesType:
         if isinstance(value, bytes | bytearray):
             raw = bytes(value)
         elif isinstance(value, Sequence) and not isinstance(value, str):
-            items = [U8.check(message, f"{field}[{i}]", v) for i, v in enumerate(value)]
-            raw = bytes(items)
+            plain = _plain_octets(value)
+            if plain is None:  # not all plain ints in 0..255: say which one is not
+                items = [U8.check(message, f"{field}[{i}]", v) for i, v in enumerate(value)]
+                plain = bytes(items)
+            raw = plain
         else:
             raise F3411FieldError(message, field, f"expected a list of ints, got {value!r}")
         if len(raw) > self.size:

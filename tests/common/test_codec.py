@@ -369,6 +369,21 @@ def test_odid_fields_match_mavlink_field_names_and_round_trip() -> None:
     assert codec.message_from_fields(name, fields) == loc
 
 
+def test_odid_fields_are_the_fields_of_the_pymavlink_message() -> None:
+    odid = [msg for msg in EVERY_MESSAGE if type(msg).__name__.startswith("Odid")]
+    assert len(odid) >= 7
+    for message in odid:
+        raw = codec.to_mavlink(message)
+        expected = {name: getattr(raw, name) for name in raw.get_fieldnames()}
+        expected = {
+            k: v.rstrip(b"\x00").decode("latin-1") if isinstance(v, bytes) else v
+            for k, v in expected.items()
+        }
+        name, fields = codec.odid_fields(message)
+        assert name == raw.get_type()
+        assert fields == {k: list(v) if isinstance(v, tuple) else v for k, v in expected.items()}
+
+
 def test_a_forged_packet_cannot_block_the_genuine_stream_with_a_future_timestamp() -> None:
     tx, rx = _link_pair(codec.SigningConfig(KEY, 1000), codec.SigningConfig(KEY))
     assert len(rx.feed(tx.pack(m.LockstepTick(0.1, 1)))) == 1

@@ -403,6 +403,18 @@ def test_message_packs_the_reference_rejects() -> None:
             "256",
         ),
         ("OPEN_DRONE_ID_BASIC_ID", {"id_type": 0, "ua_type": 0, "uas_id": "A1"}, None, "list"),
+        (
+            "OPEN_DRONE_ID_BASIC_ID",
+            {"id_type": 0, "ua_type": 0, "uas_id": [65, True]},
+            "uas_id[1]",
+            "True",
+        ),
+        (
+            "OPEN_DRONE_ID_BASIC_ID",
+            {"id_type": 0, "ua_type": 0, "uas_id": [65, -1]},
+            "uas_id[1]",
+            "-1",
+        ),
     ],
 )
 def test_field_values_that_are_no_mavlink_values(
