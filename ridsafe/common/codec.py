@@ -1038,17 +1038,20 @@ def _layout(msg_id: int) -> _Layout | None:
 # every receiver, so the same (immutable) message object is packed once per receiver. Keeping
 # the object in the cache keeps its id from being reused while the entry lives.
 _PAYLOAD_CACHE_SIZE = 512
-_payloads: dict[int, tuple[m.Message, int, int, bytes]] = {}
+_payloads: dict[int, tuple[m.Message, int, bytes, bytes]] = {}
+_CRC_EXTRA_BYTE = tuple(bytes([extra]) for extra in range(256))
 
 
-def _payload(message: m.Message) -> tuple[int, int, bytes]:
-    """(message id, CRC extra, payload bytes) of a domain message."""
+def _payload(message: m.Message) -> tuple[int, bytes, bytes]:
+    """(message id, CRC extra as one byte, payload bytes as sent: MAVLink 2 trims trailing
+    zeros but keeps at least one byte) of a domain message."""
     cached = _payloads.get(id(message))
     if cached is not None and cached[0] is message:
         return cached[1], cached[2], cached[3]
     wire = _to_wire(message)
     payload = wire.cls.unpacker.pack(*_wire_values(wire))
-    entry = (message, wire.cls.id, wire.cls.crc_extra, payload)
+    payload = payload.rstrip(b"\x00") or payload[:1]
+    entry = (message, wire.cls.id, _CRC_EXTRA_BYTE[wire.cls.crc_extra], payload)
     if len(_payloads) >= _PAYLOAD_CACHE_SIZE:
         _payloads.clear()
     _payloads[id(message)] = entry
@@ -1089,6 +1092,8 @@ class MavlinkLink:
         self, src_system: int, src_component: int, signing: SigningConfig | None = None
     ) -> None:
         self._mav = mav.MAVLink(None, srcSystem=src_system, srcComponent=src_component)
+        self._system, self._component, self._seq = src_system, src_component, 0
+        self._incompat_flags = 0 if signing is None else mav.MAVLINK_IFLAG_SIGNED
         self._pending = b""
         self.counters = LinkCounters()
         self.signing = signing
@@ -1100,38 +1105,34 @@ class MavlinkLink:
 
     @property
     def src_system(self) -> int:
-        return int(self._mav.srcSystem)
+        return self._system
 
     @property
     def src_component(self) -> int:
-        return int(self._mav.srcComponent)
+        return self._component
 
     def pack(self, message: m.Message) -> bytes:
-        """Encode one message as one MAVLink 2 packet and advance the sequence number."""
+        """Encode one message as one MAVLink 2 packet and advance the sequence number: the
+        bytes pymavlink's ``pack`` produces, without its per-packet objects."""
         msg_id, crc_extra, payload = _payload(message)
-        data = self._frame(msg_id, crc_extra, payload)
-        self._mav.seq = (self._mav.seq + 1) % 256
-        return data
-
-    def _frame(self, msg_id: int, crc_extra: int, payload: bytes) -> bytes:
-        """Header + payload (trailing zeros trimmed, at least one byte) + CRC (+ signature):
-        the bytes pymavlink's ``pack`` produces, without its per-packet objects."""
-        payload = payload.rstrip(b"\x00") or payload[:1]
-        sign = self.signing is not None
-        header = _HEADER.pack(
-            _STX_V2,
-            len(payload),
-            mav.MAVLINK_IFLAG_SIGNED if sign else 0,
-            0,
-            self._mav.seq,
-            self._mav.srcSystem,
-            self._mav.srcComponent,
-            msg_id & 0xFFFF,
-            msg_id >> 16,
+        seq = self._seq
+        self._seq = (seq + 1) & 0xFF
+        packet = (
+            _HEADER.pack(
+                _STX_V2,
+                len(payload),
+                self._incompat_flags,
+                0,
+                seq,
+                self._system,
+                self._component,
+                msg_id & 0xFFFF,
+                msg_id >> 16,
+            )
+            + payload
         )
-        crc = x25_crc(header[1:] + payload + bytes([crc_extra]))
-        packet = header + payload + crc.to_bytes(2, "little")
-        if not sign:
+        packet += x25_crc(packet[1:] + crc_extra).to_bytes(2, "little")
+        if self.signing is None:
             return packet
         state = self._mav.signing
         packet += struct.pack("<BQ", state.link_id, state.timestamp)[:7]
