@@ -105,6 +105,7 @@ class RunResult:
     wall_clock_s: float
     sim_time_s: float
     log_path: Path
+    build_s: float = 0.0  # of wall_clock_s: building the cores (kernels loaded) before t = 0
 
 
 def run_lockstep(
@@ -128,7 +129,9 @@ def run_lockstep(
     sink = RecorderProcess if recorder_process else McapRecorder
     with sink(log_path, origin=origin, foxglove=foxglove) as recorder:
         assemble.log_meta(recorder, assemble.run_meta(loaded, "lockstep", planner))
+        build_start = time.perf_counter()
         run = build(loaded, planner, recorder)
+        build_s = time.perf_counter() - build_start
         duration = loaded.scenario.duration_s
         try:
             while run.t_s < duration - 1e-9:
@@ -140,4 +143,4 @@ def run_lockstep(
         run.finish()
         wall = time.perf_counter() - wall_start
         recorder.log(topics.RUN_END, run.t_s, assemble.run_end(wall, run.t_s, status, reason))
-    return RunResult(status, reason, wall, run.t_s, log_path)
+    return RunResult(status, reason, wall, run.t_s, log_path, build_s)
