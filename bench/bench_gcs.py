@@ -19,9 +19,10 @@ scenario's depots), over ``--seeds`` seeds:
 Run: ``.venv/bin/python bench/bench_gcs.py [--mc] [--seeds 30]``
 
 Each compute line also says how many full (generation 2) garbage collections ran meanwhile
-and the longest pause: one walks every object of this process (the pre-generated traffic
-included) and, when it lands in an update, sets that update's time (the max). It is
-reported, not excluded.
+and the longest pause: one walks every object made since the start (the apps, like this
+script, freeze what they built before their loop, which a collection then skips; without
+that a full collection took ~50 ms) and, when it lands in an update, sets that update's
+time (the max). It is reported, not excluded.
 
 BLAS threads: the pipeline's matrices are tiny; OpenBLAS's worker threads only add latency,
 and on a loaded 2-core machine a call that waits for a preempted worker stalls a whole
@@ -97,6 +98,8 @@ class _FullCollections:
 
 def bench_compute(seeds: int) -> None:
     EstimationPipeline()  # load the compiled kernels once, as a GCS does at start
+    gc.collect()
+    gc.freeze()  # and take them out of the collector's reach (runtime.wait_for_start)
     for aligned in (False, True):
         for start in ("airborne", "depots"):
             samples: list[float] = []

@@ -9,6 +9,7 @@ take plain objects.
 from __future__ import annotations
 
 import argparse
+import gc
 import logging
 import signal
 import time
@@ -73,8 +74,16 @@ LATE_START_WARNING_S = 0.5  # wall seconds after --t0-unix
 
 
 def wait_for_start(args: argparse.Namespace, app: str) -> None:
-    """Sleep until ``--t0-unix`` (processes of a live run start their cores together); an
-    ``app`` that is ready only after it says so, with how much of the run it missed."""
+    """Called by an app once its core is built: sleep until ``--t0-unix`` (processes of a
+    live run start their cores together); an ``app`` that is ready only after it says so,
+    with how much of the run it missed.
+
+    It also takes everything built so far (modules, numba kernels, the core) out of the
+    garbage collector's reach (``gc.freeze``): a full collection walked all ~140,000 of those
+    objects, about 50 ms, and inside a 0.25 s GCS update that is 25 times its budget. The loop
+    then only ever scans what it made itself."""
+    gc.collect()
+    gc.freeze()
     if args.t0_unix is None:
         return
     wait_s = args.t0_unix - time.time()
