@@ -19,6 +19,7 @@ learns of it as a :class:`~ridsafe.tools.recorder.RecorderError` at its next bat
 
 from __future__ import annotations
 
+import contextlib
 import io
 import logging
 import math
@@ -27,6 +28,7 @@ import multiprocessing.connection
 import os
 import pickle
 import signal
+from collections.abc import Iterator
 from multiprocessing.context import ForkContext, SpawnContext
 from pathlib import Path
 
@@ -130,7 +132,8 @@ class RecorderProcess:
             return
         batch, self._pending = b"".join(self._pending), []
         try:
-            self._records.send_bytes(batch)
+            with _ctrl_c_deferred():  # a batch cut in half would garble the pipe
+                self._records.send_bytes(batch)
         except OSError as exc:  # BrokenPipeError: the child is gone
             raise RecorderError(
                 f"recorder process for {self.path} stopped: {self._child_result() or exc}"
@@ -145,6 +148,19 @@ class RecorderProcess:
             pass
         code = self._process.exitcode
         return "" if code in (0, None) else f"recorder process exited with code {code}"
+
+
+@contextlib.contextmanager
+def _ctrl_c_deferred() -> Iterator[None]:
+    """Hold SIGINT until the block is done (where the platform can block signals)."""
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _record(

@@ -26,7 +26,7 @@ from ridsafe.tools.recorder import (
     RecorderError,
     read_records,
 )
-from ridsafe.tools.recorder_process import RecorderProcess
+from ridsafe.tools.recorder_process import RecorderProcess, _ctrl_c_deferred
 from tests.tools.test_recorder import (
     cycle,
     meta_record,
@@ -152,7 +152,7 @@ def test_the_file_is_finished_when_the_runs_process_dies(tmp_path: Path) -> None
         f"""
         import os
         from ridsafe.common import topics
-        from ridsafe.tools.recorder_process import RecorderProcess
+        from ridsafe.tools.recorder_process import RecorderProcess, _ctrl_c_deferred
         sink = RecorderProcess({str(path)!r})
         for k in range(30):  # 0.0 .. 7.25 s: sent when 5 s is passed
             sink.log(topics.GCS_CYCLE, 0.25 * k, {{"n": k}})
@@ -165,3 +165,13 @@ def test_the_file_is_finished_when_the_runs_process_dies(tmp_path: Path) -> None
     raw_messages(path)  # the seeking reader needs the summary and footer
     times = [t for _topic, t, _r in read_records(path)]
     assert times == pytest.approx([0.25 * k for k in range(21)])  # up to the record at 5.0 s
+
+
+@pytest.mark.skipif(not hasattr(signal, "pthread_sigmask"), reason="signals cannot be held")
+def test_ctrl_c_during_a_send_waits_until_the_batch_is_in_the_pipe() -> None:
+    sent_whole = False
+    with pytest.raises(KeyboardInterrupt), _ctrl_c_deferred():
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.05)  # the signal has arrived and waits
+        sent_whole = True
+    assert sent_whole
