@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import pickle
 from dataclasses import InitVar, dataclass, field
 from typing import Any, ClassVar
@@ -82,7 +83,11 @@ def test_module_level_classes_pickle_and_keep_their_signature() -> None:
     value = Module(3, (1.0, 2.0))
     assert pickle.loads(pickle.dumps(value)) == value
     assert Module.__init__.__qualname__ == "Module.__init__"
-    assert list(dataclasses.fields(Module)) == list(dataclasses.fields(Module))
+    parameters = list(inspect.signature(Module.__init__).parameters.values())[1:]
+    assert [(p.name, p.default) for p in parameters] == [
+        ("sysid", inspect.Parameter.empty),
+        ("position_m", (0.0, 0.0)),
+    ]
     assert Module(4) == Module(4, (0.0, 0.0))
 
 
