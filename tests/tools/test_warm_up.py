@@ -8,7 +8,6 @@ import gc
 import json
 import logging
 import os
-import re
 import subprocess
 import sys
 import time
@@ -75,7 +74,7 @@ def test_a_process_ready_late_says_which_and_how_much_it_missed(
         runtime.wait_for_start(_args(time.time() - 3.0, speed=4.0), "companion 1-4")
     (message,) = [r.getMessage() for r in caplog.records]
     assert message.startswith("companion 1-4: ready 3.0 s (wall) after")
-    assert re.search(r"first 12\.\d s of sim time", message)  # 3 s late at 4x
+    assert "first 12.0 s of sim time" in message  # 3 s late at 4x
 
 
 def test_a_process_ready_in_time_waits_for_the_start_and_says_nothing(
