@@ -984,7 +984,6 @@ class _Layout:
     name: str
     crc_extra_byte: bytes
     unpacker: struct.Struct
-    fieldnames: tuple[str, ...]
     slices: tuple[tuple[int, int], ...]  # per field: (index in the unpacked tuple, length)
     # The first unpacked item of every field, in XML order, in one C call; then the few
     # fields that are more than that: arrays (field index, tip, length) and char arrays.
@@ -1022,9 +1021,8 @@ def _layout(msg_id: int) -> _Layout | None:
     firsts = cls.unpacker.unpack(bytes(cls.unpacker.size))
     return _Layout(
         cls.msgname,
-        bytes([cls.crc_extra]),
+        _CRC_EXTRA_BYTE[cls.crc_extra],
         cls.unpacker,
-        tuple(cls.fieldnames),
         slices,
         operator.itemgetter(*(tip for tip, _ in slices)),
         tuple((i, tip, length) for i, (tip, length) in enumerate(slices) if length > 1),

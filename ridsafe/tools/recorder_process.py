@@ -22,7 +22,6 @@ from __future__ import annotations
 import contextlib
 import io
 import logging
-import math
 import multiprocessing
 import multiprocessing.connection
 import os
@@ -81,6 +80,7 @@ class RecorderProcess:
                 str(self.path),
                 foxglove,
                 origin,
+                self._flush_every_s,
             ),
             name="ridsafe-recorder",
             daemon=False,
@@ -96,9 +96,11 @@ class RecorderProcess:
             self._pending.append(pickle.dumps((topic, t_s, record), pickle.HIGHEST_PROTOCOL))
         except (pickle.PicklingError, TypeError, AttributeError) as exc:
             raise RecorderError(f"{topic}: record cannot be handed to the recorder: {exc}") from exc
-        if len(self._pending) >= self._batch_records or t_s >= self._next_send_s:
+        if t_s >= self._next_send_s:  # where the child's recorder flushes (its own rule)
+            self._next_send_s = t_s + self._flush_every_s
             self._send()
-            self._next_send_s = (math.floor(t_s / self._flush_every_s) + 1) * self._flush_every_s
+        elif len(self._pending) >= self._batch_records:
+            self._send()
 
     def close(self) -> None:
         """Send what is left, let the child finish the file and wait for it; raises
@@ -170,6 +172,7 @@ def _record(
     path: str,
     foxglove: bool,
     origin: GeodeticOrigin | None,
+    flush_every_s: float,
 ) -> None:
     """The child: write every record received until the empty batch or end of file."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -177,7 +180,10 @@ def _record(
         end.close()
     error = ""
     try:
-        with McapRecorder(path, foxglove=foxglove, origin=origin) as recorder:
+        recorder = McapRecorder(
+            path, foxglove=foxglove, origin=origin, flush_every_s=flush_every_s
+        )  # flushes where the run sends its batches
+        with recorder:
             while True:
                 try:
                     batch = records.recv_bytes()
