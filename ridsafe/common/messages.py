@@ -179,6 +179,17 @@ class RidsafeDetector(enum.IntEnum):
     MLAT = 5
 
 
+class RidTransport(enum.IntEnum):
+    """RIDSAFE_RID_TRANSPORT: how a Remote ID frame reached its receiver."""
+
+    UNKNOWN = 0
+    SIMULATED = 1
+    BLUETOOTH_LEGACY = 2
+    BLUETOOTH_LONG_RANGE = 3
+    WIFI_NAN = 4
+    WIFI_BEACON = 5
+
+
 class AlertState(enum.IntEnum):
     CLEARED = 0
     RAISED = 1
@@ -420,13 +431,17 @@ class OdidRaw:
 
 @quick_init
 @dataclass(frozen=True, slots=True)
-class RidRssi:
-    """Signal strength of the Remote ID frame handed over just before this message."""
+class RidFrameReport:
+    """One Remote ID frame a receiver heard, as it reports it: the ASTM F3411 bytes (one
+    25-byte message or a message pack) with their signal strength, the sender as the radio
+    layer knows it (MAC or the sim's radio id; b"" unknown) and how it travelled
+    (RIDSAFE_RID_FRAME). The receive time is the holder's: see ``common.heard``."""
 
-    t_s: float
+    frame: bytes
     rssi_dbm: float
-    id_or_mac: bytes
-    odid_message_type: int
+    sender_id: bytes
+    transport: int
+    channel: int = 0
 
 
 @quick_init
@@ -514,7 +529,7 @@ Message: TypeAlias = (
     | OdidSelfId
     | OdidArmStatus
     | OdidRaw
-    | RidRssi
+    | RidFrameReport
     | Observation
     | UnsafeRegionMsg
     | SpoofAlert

@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
-from ridsafe.common.runner import Datagrams, SansIoCore
+from ridsafe.common.shell import Datagrams, SansIoCore
 
 Port = tuple[str, str]  # (core name, endpoint name)
 

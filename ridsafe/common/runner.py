@@ -28,18 +28,13 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from ridsafe.common.errors import UdpError
+from ridsafe.common.shell import Datagrams, SansIoCore
 from ridsafe.common.udp import Address, UdpEndpoint
 
 logger = logging.getLogger(__name__)
 
 PEER_SEPARATOR = "@"
 _MAX_CACHED_PEERS = 4096
-
-Datagrams = list[tuple[str, bytes]]
-
-
-class SansIoCore(Protocol):
-    def handle(self, now_s: float, inbound: Datagrams) -> Datagrams: ...
 
 
 class RunnerClock(Protocol):

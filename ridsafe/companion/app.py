@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from ridsafe.common.clock import MonotonicClock
 from ridsafe.common.errors import UdpError
 from ridsafe.common.runner import RunnerClock, UdpRunner
+from ridsafe.common.shell import Datagrams
 from ridsafe.common.udp import UdpEndpoint
 from ridsafe.companion.companion import AUTOPILOT, GCS, Companion
 
@@ -40,8 +41,6 @@ logger = logging.getLogger(__name__)
 DEFAULT_AUTOPILOT_BASE_PORT = 5760
 INSTANCE_STEP = 10
 DEFAULT_GCS_CONNECTION = "udpout:127.0.0.1:14450"
-
-Datagrams = list[tuple[str, bytes]]
 
 
 def default_autopilot_connection(

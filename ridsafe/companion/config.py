@@ -121,7 +121,6 @@ class CompanionConfig:
     rid_location_period_s: float = 1.0
     rid_system_update_period_s: float = 1.0
     rid_static_period_s: float = 2.5  # BASIC_ID, SYSTEM, OPERATOR_ID
-    rssi_pair_timeout_s: float = 0.5  # a LOCATION waits this long for its RSSI
     neighbour_max_age_s: float = 3.0
     max_extrapolation_s: float = 1.0  # own position is extrapolated at most this far
     operator_id: str = DEFAULT_OPERATOR_ID
@@ -163,7 +162,6 @@ _POSITIVE = (
     "command_timeout_s",
     "autopilot_timeout_s",
     "gcs_timeout_s",
-    "rssi_pair_timeout_s",
     "neighbour_max_age_s",
     "max_extrapolation_s",
 )

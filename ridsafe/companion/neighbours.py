@@ -13,18 +13,25 @@ walking pace).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Collection
 from dataclasses import dataclass
 
+from ridsafe.common import codec
 from ridsafe.common import messages as m
 from ridsafe.common.frozen import quick_init
-from ridsafe.companion.observations import claimed_id
 from ridsafe.companion.planner_api import Neighbour, Vec3
 
 __all__ = ["NeighbourTable", "velocity_ned"]
 
 ToLocal = Callable[[float, float, float], Vec3]
+
+
+@functools.lru_cache(maxsize=1024)
+def claimed_id(id_or_mac: bytes) -> str:
+    """The claimed UAS id as text: printable ASCII kept, anything else as '?'."""
+    return "".join(chr(b) if 32 <= b < 127 else "?" for b in id_or_mac[: codec.ODID_ID_LEN])
 
 
 def velocity_ned(location: m.OdidLocation) -> Vec3:

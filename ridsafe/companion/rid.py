@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from ridsafe.common import messages as m
 from ridsafe.common import rid
 from ridsafe.companion.config import CompanionConfig
+from ridsafe.companion.telemetry import OwnTelemetry
 
 __all__ = ["OperatorLocation", "OwnRidBroadcaster", "Periodic", "RidCounters"]
 
@@ -90,6 +91,20 @@ class OwnRidBroadcaster:
         building the aircraft's state until then."""
         slots = (self._static, self._system, self._location, self._system_update)
         return min(-math.inf if p.next_s is None else p.next_s for p in slots) - _EPS_S
+
+    def broadcast(
+        self, now_s: float, own: OwnTelemetry, emergency: bool, max_extrapolation_s: float
+    ) -> list[m.Message]:
+        """What is due now, built from the autopilot's telemetry (``emergency``: the
+        LOCATION status says EMERGENCY)."""
+        if now_s < self.next_due_s():
+            return []
+        home = own.home
+        operator = (
+            None if home is None else OperatorLocation(home.lat_deg, home.lon_deg, home.alt_msl_m)
+        )
+        state = own.rid_state(now_s, emergency, max_extrapolation_s)
+        return self.due(now_s, state, operator, own.unix_s(now_s))
 
     def due(
         self,

@@ -8,11 +8,10 @@ cadence, every ``STATIC_PERIOD_S`` (ASTM F3411 asks for them at least every 3 s)
 often the companion refreshes them: together in one message pack (``static_as_pack``, as
 Bluetooth 5 long range and Wi-Fi broadcasts carry them), or one frame each (Bluetooth 4
 legacy advertising).
-Receive: a frame from the air is decoded and handed to the companion as the matching
-OPEN_DRONE_ID_* message with ``id_or_mac`` set to the sender's radio id (a message pack as
-one OPEN_DRONE_ID_MESSAGE_PACK, after checking every message in it decodes), followed by one
-RIDSAFE_RID_RSSI with the frame's signal strength, F3411 type and receive time. Quantisation
-on the air is therefore real: receivers see exactly what F3411 can carry.
+Receive: a frame from the air goes to the companion whole, as one RIDSAFE_RID_FRAME: the
+F3411 bytes with their signal strength and the sender's radio id (``report``); the
+companion decodes the messages inside (``common.heard``). Quantisation on the air is
+therefore real: receivers see exactly what F3411 can carry.
 
 ARM_STATUS follows ArduPilot's expectation: ready (status 0) once the companion has sent
 BASIC_ID, SYSTEM and LOCATION within the last 3 s, otherwise status 1 with the reason.
@@ -51,7 +50,6 @@ class TransponderCounters:
     sent: int = 0
     encode_rejected: int = 0
     received: int = 0
-    decode_failed: int = 0
 
 
 class Transponder:
@@ -144,23 +142,12 @@ class Transponder:
             update.timestamp_s,
         )
 
-    def receive(
-        self, now_s: float, frame: bytes, sender_id: bytes, rssi_dbm: float
-    ) -> list[m.Message]:
-        """A frame heard on the air -> OPEN_DRONE_ID_* (+ RIDSAFE_RID_RSSI) for the companion."""
-        return self.hand_over(now_s, decode_frame(frame, sender_id), sender_id, rssi_dbm)
-
-    def hand_over(
-        self, now_s: float, decoded: DecodedFrame, sender_id: bytes, rssi_dbm: float
-    ) -> list[m.Message]:
-        """What this transponder gives its companion for a frame ``decode_frame`` decoded
-        (decoding once serves every receiver of a transmission): the message, then the
-        frame's RSSI."""
-        self.counters.decode_failed += decoded.failures
-        if decoded.message is None:
-            return []
+    def report(self, frame: bytes, sender_id: bytes, rssi_dbm: float) -> m.RidFrameReport:
+        """What this transponder tells its companion about a frame it heard: the frame as it
+        came off the air, whole, with its signal strength and the sender's radio id (one
+        RIDSAFE_RID_FRAME; the companion reads the messages inside)."""
         self.counters.received += 1
-        return [decoded.message, m.RidRssi(now_s, rssi_dbm, sender_id, decoded.msg_type)]
+        return m.RidFrameReport(frame, rssi_dbm, sender_id, int(m.RidTransport.SIMULATED))
 
     def arm_status(self, now_s: float) -> m.OdidArmStatus:
         missing = sorted(
@@ -175,35 +162,3 @@ class Transponder:
     def ready_error(self, now_s: float) -> str | None:
         status = self.arm_status(now_s)
         return status.error if status.status else None
-
-
-@dataclass(frozen=True)
-class DecodedFrame:
-    """A frame from the air as the OPEN_DRONE_ID_* message for the companion (``id_or_mac`` =
-    the sender; None when it cannot be handed over) and its F3411 type; ``failures`` counts
-    parts that could not be decoded."""
-
-    message: m.Message | None
-    msg_type: int
-    failures: int = 0
-
-
-def decode_frame(frame: bytes, sender_id: bytes) -> DecodedFrame:
-    """Decode a frame from the air (a single message, or a message pack whose messages must
-    all decode: a receiver hands on no pack it could not read)."""
-    id_or_mac = list(sender_id.ljust(20, b"\x00"))
-    try:
-        msg_type = int(f3411.message_type(frame))
-        decoded = f3411.decode(frame)
-        if msg_type == f3411.MessageType.MESSAGE_PACK:
-            f3411.decode_pack(frame)
-    except RidsafeError as exc:
-        logger.warning("undecodable frame from %r: %s", sender_id, exc)
-        return DecodedFrame(None, -1, 1)
-    name, fields = decoded
-    try:
-        message = codec.message_from_fields(name, dict(fields, id_or_mac=id_or_mac))
-    except (RidsafeError, ValueError, TypeError) as exc:
-        logger.warning("cannot hand over %s from %r: %s", name, sender_id, exc)
-        return DecodedFrame(None, msg_type, 1)
-    return DecodedFrame(message, msg_type)

@@ -23,7 +23,7 @@ import enum
 import logging
 import math
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,6 +33,7 @@ from ridsafe.common import messages as m
 from ridsafe.common.errors import ClockError
 from ridsafe.common.logsink import LogSink, NullSink
 from ridsafe.common.scenario import Scenario
+from ridsafe.common.shell import AppShell, Datagrams, Endpoint
 from ridsafe.sim_backend import telemetry
 from ridsafe.sim_backend.autopilot import (
     Autopilot,
@@ -45,20 +46,13 @@ from ridsafe.sim_backend.dynamics import EULER, IDX_PSI, POS_ENU, STATE_SIZE, VE
 from ridsafe.sim_backend.radio import RadioChannel, Reception, Transmission
 from ridsafe.sim_backend.spoofer import SpooferBroadcaster, StraightLineMission
 from ridsafe.sim_backend.telemetry import FleetSnapshot, TelemetrySchedule
-from ridsafe.sim_backend.transponder import (
-    STATIC_PERIOD_S,
-    TRANSPONDER_COMPONENT,
-    DecodedFrame,
-    Transponder,
-    decode_frame,
-)
+from ridsafe.sim_backend.transponder import STATIC_PERIOD_S, TRANSPONDER_COMPONENT, Transponder
 from ridsafe.sim_backend.vehicles import OctorotorFleet
 
 logger = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
 AUTOPILOT_COMPONENT = 1
-MAX_DATAGRAM_BYTES = 1400
 _ODID_INBOUND = (
     m.OdidBasicId,
     m.OdidLocation,
@@ -80,21 +74,24 @@ def endpoint_name(sysid: int, kind: EndpointKind) -> str:
 
 
 @dataclass
-class _Endpoint:
-    name: str
+class _Port:
+    """One vehicle endpoint: the shell's endpoint and what the vehicle keeps for it."""
+
+    endpoint: Endpoint
     sysid: int
     kind: EndpointKind
-    autopilot_link: codec.MavlinkLink
-    transponder_link: codec.MavlinkLink | None
     schedule: TelemetrySchedule
-    out: list[bytes] = field(default_factory=list)
+
+    @property
+    def name(self) -> str:
+        return self.endpoint.name
 
 
 @dataclass
 class BackendCounters:
-    """Inbound traffic the backend refused, by reason (the links count malformed bytes)."""
+    """Inbound traffic the backend refused, by reason (the shell counts unknown endpoints,
+    the links malformed bytes)."""
 
-    unknown_endpoint: int = 0
     wrong_vehicle: int = 0
     transponder_commands: int = 0
 
@@ -153,8 +150,9 @@ class SimBackend:
         )
         self.spoofer_index = len(scenario.aircraft) if scenario.spoofer is not None else None
         self.spoofer_broadcaster = self._make_spoofer_broadcaster()
+        self.shell = AppShell("sim")
         self.endpoints = {
-            endpoint_name(i + 1, kind): self._make_endpoint(i + 1, kind)
+            endpoint_name(i + 1, kind): self._make_port(i + 1, kind)
             for i in range(self.n_vehicles)
             for kind in kinds
         }
@@ -215,18 +213,16 @@ class SimBackend:
             phase_s=phase,
         )
 
-    def _make_endpoint(self, sysid: int, kind: EndpointKind) -> _Endpoint:
-        transponder = None
+    def _make_port(self, sysid: int, kind: EndpointKind) -> _Port:
+        """Vehicle ``sysid``'s endpoint of ``kind``: the autopilot (component 1) parses and
+        sends; on the companion link its RID transponder (236) sends too."""
+        senders = {}
         if kind is EndpointKind.COMPANION:
-            transponder = codec.MavlinkLink(sysid, TRANSPONDER_COMPONENT)
-        return _Endpoint(
-            name=endpoint_name(sysid, kind),
-            sysid=sysid,
-            kind=kind,
-            autopilot_link=codec.MavlinkLink(sysid, AUTOPILOT_COMPONENT),
-            transponder_link=transponder,
-            schedule=TelemetrySchedule(self.config.telemetry_hz.by_id()),
-        )
+            senders[TRANSPONDER_COMPONENT] = codec.MavlinkLink(sysid, TRANSPONDER_COMPONENT)
+        link = codec.MavlinkLink(sysid, AUTOPILOT_COMPONENT)
+        endpoint = self.shell.add(Endpoint(endpoint_name(sysid, kind), link, senders=senders))
+        schedule = TelemetrySchedule(self.config.telemetry_hz.by_id())
+        return _Port(endpoint, sysid, kind, schedule)
 
     def _launch_spoofer(self, i: int) -> None:
         """The spoofer starts airborne, armed, flying its line in AUTO."""
@@ -239,13 +235,14 @@ class SimBackend:
 
     # -- the sans-I/O step ----------------------------------------------------------------
 
-    def handle(self, now_s: float, inbound: Iterable[tuple[str, bytes]]) -> list[tuple[str, bytes]]:
+    def handle(self, now_s: float, inbound: Iterable[tuple[str, bytes]]) -> Datagrams:
         """Consume inbound datagrams, advance to ``now_s``, return outbound datagrams."""
         if not math.isfinite(now_s) or now_s < self.t_s - 1e-9:
             raise ClockError(f"sim time must not go backwards: now {self.t_s} s, asked {now_s} s")
         samples = self._samples()
-        for name, data in inbound:
-            self._receive(name, data, samples)
+        for endpoint, received in self.shell.receive(inbound):
+            port = self.endpoints[endpoint.name]
+            self._route(port, received, samples[port.sysid - 1])
         self.fleet.advance_to(now_s)
         self.t_s = now_s
         samples = self._samples()
@@ -255,7 +252,7 @@ class SimBackend:
         self._carry_air(now_s)
         self._periodic(now_s)
         self._log(now_s)
-        return self._flush()
+        return self.shell.flush()
 
     def _log(self, now_s: float) -> None:
         """Truth at ``truth_log_hz`` and every RID frame sent and received (topics.py)."""
@@ -303,16 +300,7 @@ class SimBackend:
             for i, g in enumerate(on_ground)
         ]
 
-    def _receive(self, name: str, data: bytes, samples: list[VehicleSample]) -> None:
-        endpoint = self.endpoints.get(name)
-        if endpoint is None:
-            self.counters.unknown_endpoint += 1
-            logger.warning("datagram for unknown endpoint %r dropped", name)
-            return
-        for received in endpoint.autopilot_link.feed(data):
-            self._route(endpoint, received, samples[endpoint.sysid - 1])
-
-    def _route(self, endpoint: _Endpoint, received: codec.Received, sample: VehicleSample) -> None:
+    def _route(self, endpoint: _Port, received: codec.Received, sample: VehicleSample) -> None:
         msg = received.message
         i = endpoint.sysid - 1
         ctx = CommandContext(self.t_s, sample, endpoint.schedule)
@@ -345,7 +333,7 @@ class SimBackend:
             autopilot.handle_position_target(msg, ctx)
 
     def _command(
-        self, endpoint: _Endpoint, received: codec.Received, cmd: m.CommandLong, ctx: CommandContext
+        self, endpoint: _Port, received: codec.Received, cmd: m.CommandLong, ctx: CommandContext
     ) -> None:
         if cmd.target_component == TRANSPONDER_COMPONENT:
             self.counters.transponder_commands += 1
@@ -373,19 +361,14 @@ class SimBackend:
         self.last_transmissions, self._pending_air = self._pending_air, []
         positions = self.fleet.state[:, POS_ENU]
         self.last_receptions = self.radio.deliver(self.last_transmissions, positions)
-        decoded: dict[int, DecodedFrame] = {}  # one decode per transmission, not per receiver
         for rx in self.last_receptions:
             sender = self.transponders[rx.transmission.sender]
-            key = id(rx.transmission)
-            if key not in decoded:
-                decoded[key] = decode_frame(rx.transmission.payload, sender.radio_id)
-            messages = self.transponders[rx.receiver].hand_over(
-                now_s, decoded[key], sender.radio_id, rx.rssi_dbm
+            report = self.transponders[rx.receiver].report(
+                rx.transmission.payload, sender.radio_id, rx.rssi_dbm
             )
-            endpoint = self.endpoints.get(endpoint_name(rx.receiver + 1, EndpointKind.COMPANION))
-            if endpoint is not None:
-                for msg in messages:
-                    self._send(endpoint, msg, transponder=True)
+            port = self.endpoints.get(endpoint_name(rx.receiver + 1, EndpointKind.COMPANION))
+            if port is not None:
+                self._send(port, report, transponder=True)
 
     def _periodic(self, now_s: float) -> None:
         snapshot: FleetSnapshot | None = None
@@ -410,7 +393,7 @@ class SimBackend:
         if now_s >= self._next_periodic_s - 1e-9:
             self._next_periodic_s += 1.0 / max(self.config.transponder_heartbeat_hz, 1e-3)
             for endpoint in self.endpoints.values():
-                if endpoint.transponder_link is not None:
+                if TRANSPONDER_COMPONENT in endpoint.endpoint.senders:
                     transponder = self.transponders[endpoint.sysid - 1]
                     self._send(endpoint, transponder.heartbeat(), transponder=True)
                     self._send(endpoint, transponder.arm_status(now_s), transponder=True)
@@ -421,22 +404,16 @@ class SimBackend:
         builder = _TELEMETRY_BUILDERS[msg_id]
         return builder(snapshot, i)
 
-    def _endpoints_of(self, sysid: int) -> list[_Endpoint]:
+    def _endpoints_of(self, sysid: int) -> list[_Port]:
         return [e for e in self.endpoints.values() if e.sysid == sysid]
 
-    def _send(self, endpoint: _Endpoint, msg: m.Message, transponder: bool = False) -> None:
-        link = endpoint.transponder_link if transponder else endpoint.autopilot_link
-        if link is None:
-            return
-        endpoint.out.append(link.pack(msg))
-
-    def _flush(self) -> list[tuple[str, bytes]]:
-        out: list[tuple[str, bytes]] = []
-        for endpoint in self.endpoints.values():
-            if endpoint.out:
-                out.extend((endpoint.name, d) for d in _datagrams(endpoint.out))
-                endpoint.out = []
-        return out
+    def _send(self, port: _Port, msg: m.Message, transponder: bool = False) -> None:
+        """Queue ``msg`` from the autopilot, or from the RID transponder (only the
+        companion link has one; elsewhere the message is not sent)."""
+        if not transponder:
+            port.endpoint.send(msg)
+        elif TRANSPONDER_COMPONENT in port.endpoint.senders:
+            port.endpoint.send(msg, TRANSPONDER_COMPONENT)
 
     # -- for logs, metrics and tests ------------------------------------------------------
 
@@ -456,7 +433,7 @@ class SimBackend:
         )
 
     def link_counters(self) -> dict[str, codec.LinkCounters]:
-        return {name: e.autopilot_link.counters for name, e in self.endpoints.items()}
+        return self.shell.link_counters()
 
 
 _TELEMETRY_BUILDERS: dict[int, Callable[[FleetSnapshot, int], m.Message]] = {
@@ -473,17 +450,3 @@ def _addressed(ack: m.CommandAck, received: codec.Received) -> m.CommandAck:
     return m.CommandAck(
         ack.command, ack.result, received.src_system, received.src_component, ack.progress
     )
-
-
-def _datagrams(packets: list[bytes]) -> list[bytes]:
-    """Join packets into datagrams of at most MAX_DATAGRAM_BYTES (never splitting one)."""
-    out: list[bytes] = []
-    current = bytearray()
-    for packet in packets:
-        if current and len(current) + len(packet) > MAX_DATAGRAM_BYTES:
-            out.append(bytes(current))
-            current = bytearray()
-        current += packet
-    if current:
-        out.append(bytes(current))
-    return out

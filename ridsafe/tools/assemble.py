@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from ridsafe import __version__
 from ridsafe.common import codec, topics
 from ridsafe.common.config import to_mapping
+from ridsafe.common.heard import RidFrameDecoder
 from ridsafe.common.logsink import LogSink
 from ridsafe.companion.companion import Companion
 from ridsafe.companion.config import CompanionSpec
@@ -46,7 +47,10 @@ def make_companion(
     planner: str,
     sink: LogSink,
     signing: codec.SigningConfig | None,
+    frame_decoder: RidFrameDecoder | None = None,
 ) -> Companion:
+    """``frame_decoder``: share one between the companions of a process (a broadcast that
+    all of them hear is then decoded once)."""
     config = loaded.companion
     spec = CompanionSpec.from_scenario(loaded.scenario, sysid, config.operator_id)
     settings = PlannerSettings(
@@ -59,7 +63,8 @@ def make_companion(
         seed=loaded.scenario.seed,
         config=loaded.planner,
     )
-    return Companion(spec, config, make_planner(planner, settings), sink, signing=signing)
+    planner_core = make_planner(planner, settings)
+    return Companion(spec, config, planner_core, sink, signing, frame_decoder=frame_decoder)
 
 
 def make_gcs(loaded: ScenarioFile, sink: LogSink, signing: codec.SigningConfig | None) -> Gcs:

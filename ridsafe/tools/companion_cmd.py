@@ -21,6 +21,7 @@ from typing import Any
 
 from ridsafe.common import codec, topics
 from ridsafe.common.errors import RidsafeError
+from ridsafe.common.heard import RidFrameDecoder
 from ridsafe.common.logsink import LogSink, Record
 from ridsafe.companion.app import (
     DEFAULT_GCS_CONNECTION,
@@ -106,6 +107,7 @@ def build_companions(
     signing: codec.SigningConfig | None,
 ) -> list[Companion]:
     scenario, config = loaded.scenario, loaded.companion
+    decoder = RidFrameDecoder()  # shared by the fleet: each broadcast is decoded once
     companions = []
     for sysid in vehicles:
         spec = CompanionSpec.from_scenario(scenario, sysid, config.operator_id)
@@ -119,8 +121,9 @@ def build_companions(
             seed=scenario.seed,
             config=loaded.planner,
         )
+        planner_core = make_planner(planner, settings)
         companions.append(
-            Companion(spec, config, make_planner(planner, settings), sink, signing=signing)
+            Companion(spec, config, planner_core, sink, signing, frame_decoder=decoder)
         )
     return companions
 

@@ -16,9 +16,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ridsafe.common import topics
+from ridsafe.common.heard import RidFrameDecoder
 from ridsafe.common.logsink import LogSink, NullSink
 from ridsafe.common.router import ByteRouter, Wire
-from ridsafe.common.runner import SansIoCore
+from ridsafe.common.shell import SansIoCore
 from ridsafe.companion.companion import Companion
 from ridsafe.gcs.gcs import Gcs, peer_endpoint
 from ridsafe.sim_backend.world import EndpointKind, SimBackend, endpoint_name
@@ -70,8 +71,9 @@ class Lockstep:
 def build(loaded: ScenarioFile, planner: str, sink: LogSink) -> Lockstep:
     signing = assemble.signing_for_lockstep(loaded)
     sim = assemble.make_sim(loaded, sink)
+    decoder = RidFrameDecoder()  # shared: each broadcast is decoded once, not per receiver
     companions = {
-        sysid: assemble.make_companion(loaded, sysid, planner, sink, signing)
+        sysid: assemble.make_companion(loaded, sysid, planner, sink, signing, decoder)
         for sysid in assemble.companion_ids(loaded)
     }
     gcs = assemble.make_gcs(loaded, sink, signing)

@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from ridsafe.common import codec
 from ridsafe.common import messages as m
 from ridsafe.common.dialect import ridsafe_v20 as mav
+from ridsafe.common.errors import WireError
 
 F32_REL = 1e-6  # float32 fields: relative error of one rounding
 
@@ -183,7 +184,8 @@ EVERY_MESSAGE: list[m.Message] = [
     m.OdidOperatorId(b"", 0, "OPERATOR1"),
     m.OdidSelfId(b"", 0, "delivery"),
     m.OdidArmStatus(0, ""),
-    m.RidRssi(12.5, -71.25, b"SN1", 1),
+    m.RidFrameReport(bytes(range(1, 26)), -71.25, b"SN1", int(m.RidTransport.SIMULATED), 37),
+    m.RidFrameReport(b"\xf2\x19\x01" + bytes(25), -90.5, b"", 0),
     m.SpoofAlert(5.0, 10.0, 6.5, 1, 1, "SPOOF1"),
     m.LockstepTick(0.02, 2),
     m.LockstepDone(0.02, 2),
@@ -285,11 +287,36 @@ def test_out_of_range_latitude_is_rejected_with_reason() -> None:
 
 
 def test_nan_rssi_is_rejected() -> None:
-    raw = mav.MAVLink_ridsafe_rid_rssi_message(0, math.nan, [0] * 20, 1)
+    raw = mav.MAVLink_ridsafe_rid_frame_message(math.nan, [0] * 20, 1, 0, 25, [0x12] * 228)
     tx = mav.MAVLink(None, srcSystem=3, srcComponent=236)
     _, rx = _link_pair()
     assert rx.feed(bytes(raw.pack(tx))) == []
     assert rx.counters.invalid_value == 1
+
+
+@pytest.mark.parametrize("frame_len", [0, 229, 255])
+def test_rid_frame_length_outside_the_field_is_rejected(frame_len: int) -> None:
+    raw = mav.MAVLink_ridsafe_rid_frame_message(-70.0, [0] * 20, 1, 0, frame_len, [1] * 228)
+    tx = mav.MAVLink(None, srcSystem=3, srcComponent=236)
+    _, rx = _link_pair()
+    assert rx.feed(bytes(raw.pack(tx))) == []
+    assert rx.counters.invalid_value == 1
+
+
+def test_rid_frame_keeps_trailing_zero_bytes_and_the_largest_pack() -> None:
+    """A frame ending in zeros comes back whole (frame_len, not the padding, says where it
+    ends), and a 9-message pack (228 bytes) fits the 255-byte payload."""
+    tx, rx = _link_pair()
+    for frame in (b"\x12" + bytes(24), bytes(range(228))):
+        report = m.RidFrameReport(frame, -80.0, b"SN-7", int(m.RidTransport.WIFI_NAN), 6)
+        (got,) = rx.feed(tx.pack(report))
+        assert got.message == report
+
+
+def test_rid_frame_too_long_is_refused_on_the_way_out() -> None:
+    tx, _ = _link_pair()
+    with pytest.raises(WireError):
+        tx.pack(m.RidFrameReport(bytes(229), -80.0, b"", 0))
 
 
 def test_message_without_domain_class_is_ignored_and_counted() -> None:
@@ -443,7 +470,7 @@ def test_every_dialect_message_unpacks_to_the_fields_pymavlink_reads() -> None:
             args.append([value] * length if length and fieldtype != "char" else value)
         packet = bytes(cls(*args).pack(reference))
         expected = reference.decode(bytearray(packet))
-        layout = codec._layout(msg_id)
+        layout = codec.wire.layout(msg_id)
         assert layout is not None
         view = layout.view(packet[10:-2])
         assert view.get_type() == cls.msgname and view.get_fieldnames() == tuple(cls.fieldnames)

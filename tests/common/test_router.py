@@ -7,7 +7,7 @@ import pytest
 from ridsafe.common import codec
 from ridsafe.common import messages as m
 from ridsafe.common.router import ByteRouter, Wire
-from ridsafe.common.runner import Datagrams
+from ridsafe.common.shell import Datagrams
 from ridsafe.sim_backend.config import SimConfig
 from ridsafe.sim_backend.world import SimBackend
 from tests.sim_backend.helpers import scenario

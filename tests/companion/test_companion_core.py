@@ -352,10 +352,10 @@ def test_a_planner_that_raises_is_logged_and_the_aircraft_holds_position() -> No
             return StraightLinePlanner().plan(planner_input)
 
     flight = Flight(make_scenario(1))
-    flight.companions[1].planner = Broken()
+    flight.companions[1].pilot.planner = Broken()
     flight.run(14.0)
     companion = flight.companions[1]
-    assert companion.counters.planner_errors >= 8
+    assert companion.pilot.counters.planner_errors >= 8
     assert flight.events(1, "planner_error")
     assert companion.last_decision is not None
     assert companion.last_decision.status is PlannerStatus.STUCK

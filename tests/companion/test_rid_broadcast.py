@@ -181,7 +181,7 @@ def test_location_broadcast_is_the_autopilots_position_and_time() -> None:
 def test_a_failed_mission_in_the_air_broadcasts_emergency() -> None:
     flight = Flight(make_scenario(1), replace(CompanionConfig(), command_retries=0))
     flight.run(8.0)
-    flight.companions[1].mission.phase = Phase.FAILED
+    flight.companions[1].mission.mission.phase = Phase.FAILED
     flight.up = tap = RawTap(flight)
     flight.run(1.5)
     statuses = {raw.status for _, raw in tap.messages if raw.get_type() == "OPEN_DRONE_ID_LOCATION"}

@@ -19,7 +19,8 @@ from ridsafe.common import codec, topics
 from ridsafe.common import messages as m
 from ridsafe.common.clock import EpochClock, MonotonicClock
 from ridsafe.common.logsink import MemorySink
-from ridsafe.common.runner import Datagrams, UdpRunner, parse_peer
+from ridsafe.common.runner import UdpRunner, parse_peer
+from ridsafe.common.shell import Datagrams
 from ridsafe.common.udp import UdpEndpoint
 from ridsafe.gcs.app import make_runner
 from ridsafe.gcs.config import GcsConfig

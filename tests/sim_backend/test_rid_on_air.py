@@ -1,5 +1,6 @@
 """Remote ID on the air: F3411 quantisation between two transponders, and the whole sim backend
-carrying the spoofer's lie to a benign aircraft's companion with the RSSI of the truth.
+carrying the spoofer's lie to a benign aircraft's companion, in one RIDSAFE_RID_FRAME per
+frame heard with the RSSI of the truth.
 
 Oracles: the F3411 quantisation steps (1e-7 deg rounded, 0.5 m altitude and 0.5 m/s vertical
 speed truncated toward zero, 0.25 m/s ground speed and whole degrees rounded, 0.1 s) applied to
@@ -20,6 +21,7 @@ from hypothesis import strategies as st
 from ridsafe.common import codec, frames, rid
 from ridsafe.common import messages as m
 from ridsafe.common.dialect import ridsafe_v20 as mav
+from ridsafe.common.heard import decode_rid_frame
 from ridsafe.common.scenario import AircraftConfig, RadioConfig, Scenario, SpooferConfig
 from ridsafe.sim_backend.transponder import Transponder
 from ridsafe.sim_backend.world import SimBackend, Truth
@@ -65,11 +67,9 @@ def test_a_location_survives_the_air_within_f3411_quantisation(
     frame = Transponder(1, SENDER_ID).on_message(0.0, sent)
     assert frame is not None
     receiver = Transponder(2, b"RSAF800000002")
-    out = receiver.receive(3.25, frame, SENDER_ID, -77.5)
-    assert len(out) == 2
-    got, rssi = out
-    assert isinstance(got, m.OdidLocation)
-    assert rssi == m.RidRssi(3.25, -77.5, SENDER_ID, int(m.OdidMessageType.LOCATION))
+    report = receiver.report(frame, SENDER_ID, -77.5)
+    assert report == m.RidFrameReport(frame, -77.5, SENDER_ID, int(m.RidTransport.SIMULATED))
+    (got,) = decode_rid_frame(report.frame, report.sender_id).locations()
     assert got.id_or_mac == SENDER_ID
     assert got.status == sent.status
 
@@ -155,25 +155,33 @@ def fspl_dbm(pt_dbm: float, d_m: float, f_mhz: float = 2400.0) -> float:
     return pt_dbm - 20.0 * math.log10(d_m / 1000.0) - 20.0 * math.log10(f_mhz) - 32.44
 
 
-def _spoofer_locations(heard: list[Heard]) -> list[tuple[Heard, Heard]]:
-    """(LOCATION, the message right after it) for every spoofer LOCATION heard."""
-    pairs = []
-    for k, item in enumerate(heard):
-        msg = item.message
-        if isinstance(msg, m.OdidLocation) and msg.id_or_mac == SPOOFER_SERIAL.encode():
-            assert k + 1 < len(heard), "a LOCATION was the last message"
-            pairs.append((item, heard[k + 1]))
-    return pairs
+def _spoofer_frames(heard: list[Heard], msg_type: m.OdidMessageType) -> list[Heard]:
+    """Every heard frame of the spoofer of F3411 type ``msg_type``."""
+    out = []
+    for item in heard:
+        report = item.message
+        if (
+            isinstance(report, m.RidFrameReport)
+            and report.sender_id == SPOOFER_SERIAL.encode()
+            and report.frame[0] >> 4 == msg_type
+        ):
+            out.append(item)
+    return out
+
+
+def _location(item: Heard) -> m.OdidLocation:
+    assert isinstance(item.message, m.RidFrameReport)
+    (loc,) = decode_rid_frame(item.message.frame, item.message.sender_id).locations()
+    return loc
 
 
 def test_vehicle_1_hears_the_spoofers_claim_of_truth_plus_offset(
     heard_by_vehicle_1: list[Heard],
 ) -> None:
-    pairs = _spoofer_locations(heard_by_vehicle_1)
-    assert len(pairs) >= 3  # 1 Hz for 3.5 s, whatever the phase
-    for item, _ in pairs:
-        loc = item.message
-        assert isinstance(loc, m.OdidLocation)
+    frames_heard = _spoofer_frames(heard_by_vehicle_1, m.OdidMessageType.LOCATION)
+    assert len(frames_heard) >= 3  # 1 Hz for 3.5 s, whatever the phase
+    for item in frames_heard:
+        loc = _location(item)
         assert item.src_component == 236
         assert loc.lat_deg is not None and loc.lon_deg is not None
         assert loc.alt_geodetic_m is not None
@@ -191,18 +199,15 @@ def test_vehicle_1_hears_the_spoofers_claim_of_truth_plus_offset(
         assert loc.status == int(m.OdidStatus.AIRBORNE)
 
 
-def test_the_rssi_after_each_location_is_that_of_the_true_position(
+def test_each_location_frame_carries_the_rssi_of_the_true_position(
     heard_by_vehicle_1: list[Heard],
 ) -> None:
-    pairs = _spoofer_locations(heard_by_vehicle_1)
-    assert pairs
-    for item, after in pairs:
-        rssi = after.message
-        assert isinstance(rssi, m.RidRssi)
-        assert after.src_component == 236
-        assert rssi.id_or_mac == SPOOFER_SERIAL.encode()
-        assert rssi.odid_message_type == int(m.OdidMessageType.LOCATION)
-        assert rssi.t_s == pytest.approx(item.t_s, abs=1e-6)
+    frames_heard = _spoofer_frames(heard_by_vehicle_1, m.OdidMessageType.LOCATION)
+    assert frames_heard
+    for item in frames_heard:
+        rssi = item.message
+        assert isinstance(rssi, m.RidFrameReport)
+        assert rssi.transport == int(m.RidTransport.SIMULATED)
         rx = item.truth.p_enu_m[0]
         true_d = float(np.linalg.norm(item.truth.p_enu_m[3] - rx))
         assert rssi.rssi_dbm == pytest.approx(fspl_dbm(20.0, true_d), abs=0.01)
@@ -214,18 +219,12 @@ def test_the_rssi_after_each_location_is_that_of_the_true_position(
 def test_the_spoofers_static_messages_arrive_in_a_pack_with_one_rssi(
     heard_by_vehicle_1: list[Heard],
 ) -> None:
-    packs = [
-        (k, h.message)
-        for k, h in enumerate(heard_by_vehicle_1)
-        if isinstance(h.message, m.OdidRaw) and h.message.name == rid.MESSAGE_PACK_NAME
-    ]
+    packs = _spoofer_frames(heard_by_vehicle_1, m.OdidMessageType.MESSAGE_PACK)
     assert packs
-    for k, pack in packs:
-        after = heard_by_vehicle_1[k + 1].message
-        assert isinstance(after, m.RidRssi)
-        assert after.odid_message_type == int(m.OdidMessageType.MESSAGE_PACK)
-        assert after.id_or_mac == SPOOFER_SERIAL.encode()
-        contents = rid.messages_in_pack(pack)
+    for item in packs:
+        report = item.message
+        assert isinstance(report, m.RidFrameReport) and math.isfinite(report.rssi_dbm)
+        contents = decode_rid_frame(report.frame, report.sender_id)
         assert not contents.errors
         inside = contents.messages
         basic = [msg for msg in inside if isinstance(msg, m.OdidBasicId)]
@@ -260,7 +259,9 @@ def test_a_companions_location_reaches_the_other_companions() -> None:
     out = backend.handle(0.02, [("v1/companion", sent)])
     v2 = codec.MavlinkLink(255, 190)
     received = [r.message for name, data in out if name == "v2/companion" for r in v2.feed(data)]
-    locations = [msg for msg in received if isinstance(msg, m.OdidLocation)]
+    reports = [msg for msg in received if isinstance(msg, m.RidFrameReport)]
+    assert len(reports) == 1
+    locations = decode_rid_frame(reports[0].frame, reports[0].sender_id).locations()
     assert len(locations) == 1
     assert locations[0].id_or_mac == b"RSAF800000001"
     assert locations[0].lat_deg == pytest.approx(47.3771, abs=1e-7)

@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from ridsafe.common import frames, rid
 from ridsafe.common import messages as m
+from ridsafe.common.heard import decode_rid_frame
 from ridsafe.sim_backend.spoofer import SpooferBroadcaster, StraightLineMission
 from ridsafe.sim_backend.transponder import Transponder
 
@@ -163,7 +164,8 @@ def test_the_claim_survives_the_air_within_f3411_quantisation() -> None:
     loc = _location_at(spoofer, 0.0, P_ENU_M, V_ENU_M_S)
     frame = sender.on_message(0.0, loc)
     assert frame is not None
-    heard = receiver.receive(0.0, frame, SERIAL.encode(), -60.0)[0]
+    report = receiver.report(frame, SERIAL.encode(), -60.0)
+    (heard,) = decode_rid_frame(report.frame, report.sender_id).messages
     assert isinstance(heard, m.OdidLocation)
     assert heard.lat_deg is not None and heard.lon_deg is not None
     assert heard.alt_geodetic_m is not None

@@ -17,6 +17,7 @@ import pytest
 from ridsafe.common import codec, f3411, rid
 from ridsafe.common import messages as m
 from ridsafe.common.dialect import ridsafe_v20 as mav
+from ridsafe.common.heard import DecodedRidFrame, decode_rid_frame
 from ridsafe.sim_backend.transponder import ARM_STATUS_MAX_AGE_S, STATIC_TYPES, Transponder
 
 SERIAL = "RSAF800000001"
@@ -302,18 +303,25 @@ def _same(got: m.Message, expected: m.Message) -> bool:
     return got == expected
 
 
+def _received(report: m.RidFrameReport) -> DecodedRidFrame:
+    """What the companion reads from a frame its transponder reported."""
+    return decode_rid_frame(report.frame, report.sender_id)
+
+
 @pytest.mark.parametrize(("label", "message", "name", "odid_type", "fields"), CASES, ids=CASE_IDS)
-def test_a_received_frame_becomes_the_message_tagged_with_the_sender_then_its_rssi(
+def test_a_received_frame_is_reported_whole_with_its_rssi_and_reads_as_the_message(
     label: str, message: m.Message, name: str, odid_type: int, fields: dict[str, object]
 ) -> None:
     tx, rx = Transponder(1, SENDER_ID), Transponder(2, b"RSAF800000002")
     frame = _on_air(tx, 0.0, message)
     assert frame is not None
-    out = rx.receive(2.5, frame, SENDER_ID, -71.25)
-    assert len(out) == 2
-    assert _same(out[0], RECEIVED[label]), out[0]
-    assert out[1] == m.RidRssi(2.5, -71.25, SENDER_ID, odid_type)
-    assert (rx.counters.received, rx.counters.decode_failed) == (1, 0)
+    report = rx.report(frame, SENDER_ID, -71.25)
+    assert report == m.RidFrameReport(frame, -71.25, SENDER_ID, int(m.RidTransport.SIMULATED))
+    decoded = _received(report)
+    assert decoded.msg_type == odid_type and decoded.errors == ()
+    (got,) = decoded.messages
+    assert _same(got, RECEIVED[label]), got
+    assert rx.counters.received == 1
 
 
 def _pack(*frames: bytes) -> bytes:
@@ -326,7 +334,7 @@ def _frame(message: m.Message) -> bytes:
     return f3411.encode(*codec.odid_fields(message))
 
 
-def test_a_message_pack_is_handed_over_whole_followed_by_one_rssi() -> None:
+def test_a_message_pack_is_reported_whole_with_one_rssi() -> None:
     messages = {label: message for label, message, *_ in CASES}
     pack = _pack(
         _frame(messages["basic_id"]),
@@ -334,19 +342,16 @@ def test_a_message_pack_is_handed_over_whole_followed_by_one_rssi() -> None:
         _frame(messages["operator_id"]),
     )
     rx = Transponder(2, b"RSAF800000002")
-    out = rx.receive(7.0, pack, SENDER_ID, -88.5)
-    assert len(out) == 2
-    handed, rssi = out
-    assert isinstance(handed, m.OdidRaw) and handed.name == rid.MESSAGE_PACK_NAME
-    assert rssi == m.RidRssi(7.0, -88.5, SENDER_ID, int(m.OdidMessageType.MESSAGE_PACK))
-    contents = rid.messages_in_pack(handed)
+    report = rx.report(pack, SENDER_ID, -88.5)
+    assert (report.frame, report.rssi_dbm) == (pack, -88.5)
+    contents = _received(report)
     assert contents.errors == ()
+    assert contents.msg_type == int(m.OdidMessageType.MESSAGE_PACK)
     assert len(contents.messages) == 3
     for got, label in zip(contents.messages, ["basic_id", "location", "operator_id"], strict=True):
         assert _same(got, RECEIVED[label]), got
-    located = rid.location_in_pack(handed).messages
+    located = contents.locations()
     assert len(located) == 1 and _same(located[0], RECEIVED["location"])
-    assert (rx.counters.received, rx.counters.decode_failed) == (1, 0)
 
 
 def test_static_messages_go_on_the_air_as_one_pack_or_a_frame_each() -> None:
@@ -404,30 +409,25 @@ GARBAGE: list[tuple[str, bytes]] = [
 
 
 @pytest.mark.parametrize("frame", [g[1] for g in GARBAGE], ids=[g[0] for g in GARBAGE])
-def test_undecodable_frames_are_counted_and_yield_nothing(frame: bytes) -> None:
-    rx = Transponder(2, b"RSAF800000002")
-    assert rx.receive(1.0, frame, SENDER_ID, -60.0) == []
-    assert (rx.counters.received, rx.counters.decode_failed) == (0, 1)
+def test_undecodable_frames_read_as_nothing_with_the_reason(frame: bytes) -> None:
+    report = Transponder(2, b"RSAF800000002").report(frame, SENDER_ID, -60.0)
+    decoded = _received(report)
+    assert decoded.messages == () and len(decoded.errors) == 1
 
 
 def test_a_bad_message_inside_a_pack_does_not_hide_the_good_ones() -> None:
     pack = _pack(_location_with_latitude(-950_000_000), _frame(rid.basic_id(SERIAL)))
-    rx = Transponder(2, b"RSAF800000002")
-    handed, rssi = rx.receive(1.0, pack, SENDER_ID, -60.0)
-    assert rssi == m.RidRssi(1.0, -60.0, SENDER_ID, int(m.OdidMessageType.MESSAGE_PACK))
-    assert isinstance(handed, m.OdidRaw)
-    contents = rid.messages_in_pack(handed)
+    contents = _received(Transponder(2, b"RSAF800000002").report(pack, SENDER_ID, -60.0))
     assert contents.messages == (RECEIVED["basic_id"],)
     assert len(contents.errors) == 1 and contents.errors[0].startswith("message 0: ")
-    assert rid.location_in_pack(handed).messages == ()
+    assert contents.locations() == []
 
 
-def test_a_pack_that_does_not_decode_is_not_handed_over() -> None:
+def test_a_pack_whose_header_lies_reads_as_nothing() -> None:
     pack = bytearray(_pack(_frame(rid.basic_id(SERIAL)), _frame(rid.operator_id("OP-1"))))
     pack[2] = 7  # claims 7 messages, holds 2
-    rx = Transponder(2, b"RSAF800000002")
-    assert rx.receive(1.0, bytes(pack), SENDER_ID, -60.0) == []
-    assert (rx.counters.received, rx.counters.decode_failed) == (0, 1)
+    contents = decode_rid_frame(bytes(pack), SENDER_ID)
+    assert contents.messages == () and len(contents.errors) == 1
 
 
 # --- ARM_STATUS and heartbeat ----------------------------------------------------------------
@@ -461,7 +461,7 @@ def test_receiving_frames_does_not_make_the_transponder_ready() -> None:
     for label, message, *_ in CASES:
         frame = _on_air(tx, 0.0, message)
         assert frame is not None, label
-        rx.receive(0.0, frame, SENDER_ID, -50.0)
+        rx.report(frame, SENDER_ID, -50.0)
     assert tx.arm_status(0.1).status == 0
     assert rx.arm_status(0.1).status == 1
 

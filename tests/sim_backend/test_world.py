@@ -12,8 +12,9 @@ from ridsafe.common import messages as m
 from ridsafe.common.dialect import ridsafe_v20 as mav
 from ridsafe.common.errors import ClockError
 from ridsafe.common.logsink import MemorySink
+from ridsafe.common.shell import MAX_DATAGRAM_BYTES
 from ridsafe.sim_backend.config import SimConfig
-from ridsafe.sim_backend.world import MAX_DATAGRAM_BYTES, SimBackend
+from ridsafe.sim_backend.world import SimBackend
 from tests.sim_backend.helpers import SimPair, scenario
 
 
@@ -54,7 +55,7 @@ def test_command_for_a_vehicle_that_does_not_exist_is_dropped_and_counted() -> N
 def test_datagrams_for_unknown_endpoints_are_counted() -> None:
     backend = SimBackend(scenario(), SimConfig())
     backend.handle(0.02, [("v42/companion", b"\xfd\x00")])
-    assert backend.counters.unknown_endpoint == 1
+    assert backend.shell.counters.unknown_endpoint == 1
 
 
 def test_time_must_not_run_backwards() -> None:

@@ -396,6 +396,24 @@ enums["RIDSAFE_REGION_FLAGS"][2] = EnumEntry("RIDSAFE_REGION_FLAGS_COASTING", ""
 RIDSAFE_REGION_FLAGS_ENUM_END = 3
 enums["RIDSAFE_REGION_FLAGS"][3] = EnumEntry("RIDSAFE_REGION_FLAGS_ENUM_END", """""")
 
+# RIDSAFE_RID_TRANSPORT
+enums["RIDSAFE_RID_TRANSPORT"] = Enum()
+enums["RIDSAFE_RID_TRANSPORT"].bitmask = False
+RIDSAFE_RID_TRANSPORT_UNKNOWN = 0
+enums["RIDSAFE_RID_TRANSPORT"][0] = EnumEntry("RIDSAFE_RID_TRANSPORT_UNKNOWN", """Not known.""")
+RIDSAFE_RID_TRANSPORT_SIMULATED = 1
+enums["RIDSAFE_RID_TRANSPORT"][1] = EnumEntry("RIDSAFE_RID_TRANSPORT_SIMULATED", """The simulator's radio channel.""")
+RIDSAFE_RID_TRANSPORT_BLUETOOTH_LEGACY = 2
+enums["RIDSAFE_RID_TRANSPORT"][2] = EnumEntry("RIDSAFE_RID_TRANSPORT_BLUETOOTH_LEGACY", """Bluetooth 4 legacy advertising (one 25-byte message per advertisement).""")
+RIDSAFE_RID_TRANSPORT_BLUETOOTH_LONG_RANGE = 3
+enums["RIDSAFE_RID_TRANSPORT"][3] = EnumEntry("RIDSAFE_RID_TRANSPORT_BLUETOOTH_LONG_RANGE", """Bluetooth 5 long range extended advertising (message packs).""")
+RIDSAFE_RID_TRANSPORT_WIFI_NAN = 4
+enums["RIDSAFE_RID_TRANSPORT"][4] = EnumEntry("RIDSAFE_RID_TRANSPORT_WIFI_NAN", """Wi-Fi Neighbour Awareness Networking action frames.""")
+RIDSAFE_RID_TRANSPORT_WIFI_BEACON = 5
+enums["RIDSAFE_RID_TRANSPORT"][5] = EnumEntry("RIDSAFE_RID_TRANSPORT_WIFI_BEACON", """Wi-Fi beacon vendor-specific element.""")
+RIDSAFE_RID_TRANSPORT_ENUM_END = 6
+enums["RIDSAFE_RID_TRANSPORT"][6] = EnumEntry("RIDSAFE_RID_TRANSPORT_ENUM_END", """""")
+
 # HL_FAILURE_FLAG
 enums["HL_FAILURE_FLAG"] = Enum()
 enums["HL_FAILURE_FLAG"].bitmask = True
@@ -6354,12 +6372,12 @@ enums["MAV_COMPONENT"][251] = EnumEntry("MAV_COMPONENT_ENUM_END", """""")
 # message IDs
 MAVLINK_MSG_ID_BAD_DATA = -1
 MAVLINK_MSG_ID_UNKNOWN = -2
-MAVLINK_MSG_ID_RIDSAFE_RID_RSSI = 61000
 MAVLINK_MSG_ID_RIDSAFE_OBSERVATION = 61001
 MAVLINK_MSG_ID_RIDSAFE_UNSAFE_REGION = 61002
 MAVLINK_MSG_ID_RIDSAFE_SPOOF_ALERT = 61003
 MAVLINK_MSG_ID_RIDSAFE_LOCKSTEP_TICK = 61004
 MAVLINK_MSG_ID_RIDSAFE_LOCKSTEP_DONE = 61005
+MAVLINK_MSG_ID_RIDSAFE_RID_FRAME = 61006
 MAVLINK_MSG_ID_SYS_STATUS = 1
 MAVLINK_MSG_ID_SYSTEM_TIME = 2
 MAVLINK_MSG_ID_PING = 4
@@ -6570,49 +6588,6 @@ MAVLINK_MSG_ID_HYGROMETER_SENSOR = 12920
 MAVLINK_MSG_ID_GLOBAL_POSITION_INT = 33
 MAVLINK_MSG_ID_AUTOPILOT_VERSION = 148
 MAVLINK_MSG_ID_HEARTBEAT = 0
-
-
-class MAVLink_ridsafe_rid_rssi_message(MAVLink_message):
-    """
-    Signal strength of the Remote ID frame the transponder handed to
-    its companion immediately before this message (an OPEN_DRONE_ID_*
-    message with the same id_or_mac).
-    """
-
-    id = MAVLINK_MSG_ID_RIDSAFE_RID_RSSI
-    msgname = "RIDSAFE_RID_RSSI"
-    fieldnames = ["time_usec", "rssi_dbm", "id_or_mac", "odid_message_type"]
-    ordered_fieldnames = ["time_usec", "rssi_dbm", "id_or_mac", "odid_message_type"]
-    fieldtypes = ["uint64_t", "float", "uint8_t", "uint8_t"]
-    fielddisplays_by_name: Dict[str, str] = {}
-    fieldenums_by_name: Dict[str, str] = {}
-    fieldunits_by_name: Dict[str, str] = {"time_usec": "us", "rssi_dbm": "dBm"}
-    native_format = bytearray(b"<QfBB")
-    orders = [0, 1, 2, 3]
-    lengths = [1, 1, 20, 1]
-    array_lengths = [0, 0, 20, 0]
-    crc_extra = 26
-    unpacker = struct.Struct("<Qf20BB")
-    instance_field = None
-    instance_offset = -1
-
-    def __init__(self, time_usec: int, rssi_dbm: float, id_or_mac: Sequence[int], odid_message_type: int):
-        MAVLink_message.__init__(self, MAVLink_ridsafe_rid_rssi_message.id, MAVLink_ridsafe_rid_rssi_message.msgname)
-        self._fieldnames = MAVLink_ridsafe_rid_rssi_message.fieldnames
-        self._instance_field = MAVLink_ridsafe_rid_rssi_message.instance_field
-        self._instance_offset = MAVLink_ridsafe_rid_rssi_message.instance_offset
-        self.time_usec = time_usec
-        self.rssi_dbm = rssi_dbm
-        self.id_or_mac = id_or_mac
-        self.odid_message_type = odid_message_type
-
-    def pack(self, mav: "MAVLink", force_mavlink1: bool = False) -> bytes:
-        return self._pack(mav, self.crc_extra, self.unpacker.pack(self.time_usec, self.rssi_dbm, self.id_or_mac[0], self.id_or_mac[1], self.id_or_mac[2], self.id_or_mac[3], self.id_or_mac[4], self.id_or_mac[5], self.id_or_mac[6], self.id_or_mac[7], self.id_or_mac[8], self.id_or_mac[9], self.id_or_mac[10], self.id_or_mac[11], self.id_or_mac[12], self.id_or_mac[13], self.id_or_mac[14], self.id_or_mac[15], self.id_or_mac[16], self.id_or_mac[17], self.id_or_mac[18], self.id_or_mac[19], self.odid_message_type), force_mavlink1=force_mavlink1)
-
-
-# Define name on the class for backwards compatibility (it is now msgname).
-# Done with setattr to hide the class variable from mypy.
-setattr(MAVLink_ridsafe_rid_rssi_message, "name", mavlink_msg_deprecated_name_property())
 
 
 class MAVLink_ridsafe_observation_message(MAVLink_message):
@@ -6840,6 +6815,54 @@ class MAVLink_ridsafe_lockstep_done_message(MAVLink_message):
 # Define name on the class for backwards compatibility (it is now msgname).
 # Done with setattr to hide the class variable from mypy.
 setattr(MAVLink_ridsafe_lockstep_done_message, "name", mavlink_msg_deprecated_name_property())
+
+
+class MAVLink_ridsafe_rid_frame_message(MAVLink_message):
+    """
+    One Remote ID frame a receiver heard, whole: the ASTM F3411 bytes
+    as they came off the air and the signal strength they came with. A
+    RID transponder (component 236) sends one to its companion for
+    every frame it hears, as soon as it hears it (the companion stamps
+    the receive time on arrival). 255 bytes: the largest message pack
+    (9 messages, 228 bytes) fits.
+    """
+
+    id = MAVLINK_MSG_ID_RIDSAFE_RID_FRAME
+    msgname = "RIDSAFE_RID_FRAME"
+    fieldnames = ["rssi_dbm", "id_or_mac", "transport", "channel", "frame_len", "frame"]
+    ordered_fieldnames = ["rssi_dbm", "id_or_mac", "transport", "channel", "frame_len", "frame"]
+    fieldtypes = ["float", "uint8_t", "uint8_t", "uint8_t", "uint8_t", "uint8_t"]
+    fielddisplays_by_name: Dict[str, str] = {}
+    fieldenums_by_name: Dict[str, str] = {"transport": "RIDSAFE_RID_TRANSPORT"}
+    fieldunits_by_name: Dict[str, str] = {"rssi_dbm": "dBm", "frame_len": "bytes"}
+    native_format = bytearray(b"<fBBBBB")
+    orders = [0, 1, 2, 3, 4, 5]
+    lengths = [1, 20, 1, 1, 1, 228]
+    array_lengths = [0, 20, 0, 0, 0, 228]
+    crc_extra = 176
+    unpacker = struct.Struct("<f20BBBB228B")
+    instance_field = None
+    instance_offset = -1
+
+    def __init__(self, rssi_dbm: float, id_or_mac: Sequence[int], transport: int, channel: int, frame_len: int, frame: Sequence[int]):
+        MAVLink_message.__init__(self, MAVLink_ridsafe_rid_frame_message.id, MAVLink_ridsafe_rid_frame_message.msgname)
+        self._fieldnames = MAVLink_ridsafe_rid_frame_message.fieldnames
+        self._instance_field = MAVLink_ridsafe_rid_frame_message.instance_field
+        self._instance_offset = MAVLink_ridsafe_rid_frame_message.instance_offset
+        self.rssi_dbm = rssi_dbm
+        self.id_or_mac = id_or_mac
+        self.transport = transport
+        self.channel = channel
+        self.frame_len = frame_len
+        self.frame = frame
+
+    def pack(self, mav: "MAVLink", force_mavlink1: bool = False) -> bytes:
+        return self._pack(mav, self.crc_extra, self.unpacker.pack(self.rssi_dbm, self.id_or_mac[0], self.id_or_mac[1], self.id_or_mac[2], self.id_or_mac[3], self.id_or_mac[4], self.id_or_mac[5], self.id_or_mac[6], self.id_or_mac[7], self.id_or_mac[8], self.id_or_mac[9], self.id_or_mac[10], self.id_or_mac[11], self.id_or_mac[12], self.id_or_mac[13], self.id_or_mac[14], self.id_or_mac[15], self.id_or_mac[16], self.id_or_mac[17], self.id_or_mac[18], self.id_or_mac[19], self.transport, self.channel, self.frame_len, self.frame[0], self.frame[1], self.frame[2], self.frame[3], self.frame[4], self.frame[5], self.frame[6], self.frame[7], self.frame[8], self.frame[9], self.frame[10], self.frame[11], self.frame[12], self.frame[13], self.frame[14], self.frame[15], self.frame[16], self.frame[17], self.frame[18], self.frame[19], self.frame[20], self.frame[21], self.frame[22], self.frame[23], self.frame[24], self.frame[25], self.frame[26], self.frame[27], self.frame[28], self.frame[29], self.frame[30], self.frame[31], self.frame[32], self.frame[33], self.frame[34], self.frame[35], self.frame[36], self.frame[37], self.frame[38], self.frame[39], self.frame[40], self.frame[41], self.frame[42], self.frame[43], self.frame[44], self.frame[45], self.frame[46], self.frame[47], self.frame[48], self.frame[49], self.frame[50], self.frame[51], self.frame[52], self.frame[53], self.frame[54], self.frame[55], self.frame[56], self.frame[57], self.frame[58], self.frame[59], self.frame[60], self.frame[61], self.frame[62], self.frame[63], self.frame[64], self.frame[65], self.frame[66], self.frame[67], self.frame[68], self.frame[69], self.frame[70], self.frame[71], self.frame[72], self.frame[73], self.frame[74], self.frame[75], self.frame[76], self.frame[77], self.frame[78], self.frame[79], self.frame[80], self.frame[81], self.frame[82], self.frame[83], self.frame[84], self.frame[85], self.frame[86], self.frame[87], self.frame[88], self.frame[89], self.frame[90], self.frame[91], self.frame[92], self.frame[93], self.frame[94], self.frame[95], self.frame[96], self.frame[97], self.frame[98], self.frame[99], self.frame[100], self.frame[101], self.frame[102], self.frame[103], self.frame[104], self.frame[105], self.frame[106], self.frame[107], self.frame[108], self.frame[109], self.frame[110], self.frame[111], self.frame[112], self.frame[113], self.frame[114], self.frame[115], self.frame[116], self.frame[117], self.frame[118], self.frame[119], self.frame[120], self.frame[121], self.frame[122], self.frame[123], self.frame[124], self.frame[125], self.frame[126], self.frame[127], self.frame[128], self.frame[129], self.frame[130], self.frame[131], self.frame[132], self.frame[133], self.frame[134], self.frame[135], self.frame[136], self.frame[137], self.frame[138], self.frame[139], self.frame[140], self.frame[141], self.frame[142], self.frame[143], self.frame[144], self.frame[145], self.frame[146], self.frame[147], self.frame[148], self.frame[149], self.frame[150], self.frame[151], self.frame[152], self.frame[153], self.frame[154], self.frame[155], self.frame[156], self.frame[157], self.frame[158], self.frame[159], self.frame[160], self.frame[161], self.frame[162], self.frame[163], self.frame[164], self.frame[165], self.frame[166], self.frame[167], self.frame[168], self.frame[169], self.frame[170], self.frame[171], self.frame[172], self.frame[173], self.frame[174], self.frame[175], self.frame[176], self.frame[177], self.frame[178], self.frame[179], self.frame[180], self.frame[181], self.frame[182], self.frame[183], self.frame[184], self.frame[185], self.frame[186], self.frame[187], self.frame[188], self.frame[189], self.frame[190], self.frame[191], self.frame[192], self.frame[193], self.frame[194], self.frame[195], self.frame[196], self.frame[197], self.frame[198], self.frame[199], self.frame[200], self.frame[201], self.frame[202], self.frame[203], self.frame[204], self.frame[205], self.frame[206], self.frame[207], self.frame[208], self.frame[209], self.frame[210], self.frame[211], self.frame[212], self.frame[213], self.frame[214], self.frame[215], self.frame[216], self.frame[217], self.frame[218], self.frame[219], self.frame[220], self.frame[221], self.frame[222], self.frame[223], self.frame[224], self.frame[225], self.frame[226], self.frame[227]), force_mavlink1=force_mavlink1)
+
+
+# Define name on the class for backwards compatibility (it is now msgname).
+# Done with setattr to hide the class variable from mypy.
+setattr(MAVLink_ridsafe_rid_frame_message, "name", mavlink_msg_deprecated_name_property())
 
 
 class MAVLink_sys_status_message(MAVLink_message):
@@ -16915,12 +16938,12 @@ setattr(MAVLink_heartbeat_message, "name", mavlink_msg_deprecated_name_property(
 
 
 mavlink_map: Dict[int, Type[MAVLink_message]] = {
-    MAVLINK_MSG_ID_RIDSAFE_RID_RSSI: MAVLink_ridsafe_rid_rssi_message,
     MAVLINK_MSG_ID_RIDSAFE_OBSERVATION: MAVLink_ridsafe_observation_message,
     MAVLINK_MSG_ID_RIDSAFE_UNSAFE_REGION: MAVLink_ridsafe_unsafe_region_message,
     MAVLINK_MSG_ID_RIDSAFE_SPOOF_ALERT: MAVLink_ridsafe_spoof_alert_message,
     MAVLINK_MSG_ID_RIDSAFE_LOCKSTEP_TICK: MAVLink_ridsafe_lockstep_tick_message,
     MAVLINK_MSG_ID_RIDSAFE_LOCKSTEP_DONE: MAVLink_ridsafe_lockstep_done_message,
+    MAVLINK_MSG_ID_RIDSAFE_RID_FRAME: MAVLink_ridsafe_rid_frame_message,
     MAVLINK_MSG_ID_SYS_STATUS: MAVLink_sys_status_message,
     MAVLINK_MSG_ID_SYSTEM_TIME: MAVLink_system_time_message,
     MAVLINK_MSG_ID_PING: MAVLink_ping_message,
@@ -17527,34 +17550,6 @@ class MAVLink(object):
         m._header = MAVLink_header(msgId, incompat_flags, compat_flags, mlen, seq, srcSystem, srcComponent)
         return m
 
-    def ridsafe_rid_rssi_encode(self, time_usec: int, rssi_dbm: float, id_or_mac: Sequence[int], odid_message_type: int) -> MAVLink_ridsafe_rid_rssi_message:
-        """
-        Signal strength of the Remote ID frame the transponder handed to its
-        companion immediately before this message (an OPEN_DRONE_ID_*
-        message with the same id_or_mac).
-
-        time_usec                 : Receive time (simulation time, or time since boot on real hardware). [us] (type:uint64_t)
-        rssi_dbm                  : Received signal strength. [dBm] (type:float)
-        id_or_mac                 : Identifier of the sender, as in the paired OPEN_DRONE_ID_* message. (type:uint8_t)
-        odid_message_type         : ASTM F3411 message type of the paired frame (0 basic ID, 1 location, ...). (type:uint8_t)
-
-        """
-        return MAVLink_ridsafe_rid_rssi_message(time_usec, rssi_dbm, id_or_mac, odid_message_type)
-
-    def ridsafe_rid_rssi_send(self, time_usec: int, rssi_dbm: float, id_or_mac: Sequence[int], odid_message_type: int, force_mavlink1: bool = False) -> None:
-        """
-        Signal strength of the Remote ID frame the transponder handed to its
-        companion immediately before this message (an OPEN_DRONE_ID_*
-        message with the same id_or_mac).
-
-        time_usec                 : Receive time (simulation time, or time since boot on real hardware). [us] (type:uint64_t)
-        rssi_dbm                  : Received signal strength. [dBm] (type:float)
-        id_or_mac                 : Identifier of the sender, as in the paired OPEN_DRONE_ID_* message. (type:uint8_t)
-        odid_message_type         : ASTM F3411 message type of the paired frame (0 basic ID, 1 location, ...). (type:uint8_t)
-
-        """
-        self.send(self.ridsafe_rid_rssi_encode(time_usec, rssi_dbm, id_or_mac, odid_message_type), force_mavlink1=force_mavlink1)
-
     def ridsafe_observation_encode(self, time_usec: int, rx_lat: int, rx_lon: int, rx_alt: float, claimed_lat: int, claimed_lon: int, claimed_alt: float, rid_timestamp: float, rssi_dbm: float, claimed_direction: int, claimed_speed_horizontal: int, claimed_speed_vertical: int, uas_id: bytes) -> MAVLink_ridsafe_observation_message:
         """
         One received Remote ID location broadcast with its RSSI, reported by a
@@ -17714,6 +17709,44 @@ class MAVLink(object):
 
         """
         self.send(self.ridsafe_lockstep_done_encode(time_usec, tick), force_mavlink1=force_mavlink1)
+
+    def ridsafe_rid_frame_encode(self, rssi_dbm: float, id_or_mac: Sequence[int], transport: int, channel: int, frame_len: int, frame: Sequence[int]) -> MAVLink_ridsafe_rid_frame_message:
+        """
+        One Remote ID frame a receiver heard, whole: the ASTM F3411 bytes as
+        they came off the air and the signal strength they came with.
+        A RID transponder (component 236) sends one to its companion
+        for every frame it hears, as soon as it hears it (the
+        companion stamps the receive time on arrival). 255 bytes: the
+        largest message pack (9 messages, 228 bytes) fits.
+
+        rssi_dbm                  : Received signal strength of this frame. [dBm] (type:float)
+        id_or_mac                 : Sender as the radio layer knows it (Bluetooth or Wi-Fi MAC address, the simulator's radio id), NUL padded; all zero if unknown. (type:uint8_t)
+        transport                 : How the frame travelled. (type:uint8_t, values:RIDSAFE_RID_TRANSPORT)
+        channel                   : Radio channel it was heard on (Bluetooth 37-39, Wi-Fi channel number); 0 if unknown. (type:uint8_t)
+        frame_len                 : Length of the frame: 25 for one message, 3 + 25 N for a message pack of N. [bytes] (type:uint8_t)
+        frame                     : The ASTM F3411 frame (first frame_len bytes; the rest zero). (type:uint8_t)
+
+        """
+        return MAVLink_ridsafe_rid_frame_message(rssi_dbm, id_or_mac, transport, channel, frame_len, frame)
+
+    def ridsafe_rid_frame_send(self, rssi_dbm: float, id_or_mac: Sequence[int], transport: int, channel: int, frame_len: int, frame: Sequence[int], force_mavlink1: bool = False) -> None:
+        """
+        One Remote ID frame a receiver heard, whole: the ASTM F3411 bytes as
+        they came off the air and the signal strength they came with.
+        A RID transponder (component 236) sends one to its companion
+        for every frame it hears, as soon as it hears it (the
+        companion stamps the receive time on arrival). 255 bytes: the
+        largest message pack (9 messages, 228 bytes) fits.
+
+        rssi_dbm                  : Received signal strength of this frame. [dBm] (type:float)
+        id_or_mac                 : Sender as the radio layer knows it (Bluetooth or Wi-Fi MAC address, the simulator's radio id), NUL padded; all zero if unknown. (type:uint8_t)
+        transport                 : How the frame travelled. (type:uint8_t, values:RIDSAFE_RID_TRANSPORT)
+        channel                   : Radio channel it was heard on (Bluetooth 37-39, Wi-Fi channel number); 0 if unknown. (type:uint8_t)
+        frame_len                 : Length of the frame: 25 for one message, 3 + 25 N for a message pack of N. [bytes] (type:uint8_t)
+        frame                     : The ASTM F3411 frame (first frame_len bytes; the rest zero). (type:uint8_t)
+
+        """
+        self.send(self.ridsafe_rid_frame_encode(rssi_dbm, id_or_mac, transport, channel, frame_len, frame), force_mavlink1=force_mavlink1)
 
     def sys_status_encode(self, onboard_control_sensors_present: int, onboard_control_sensors_enabled: int, onboard_control_sensors_health: int, load: int, voltage_battery: int, current_battery: int, battery_remaining: int, drop_rate_comm: int, errors_comm: int, errors_count1: int, errors_count2: int, errors_count3: int, errors_count4: int, onboard_control_sensors_present_extended: int = 0, onboard_control_sensors_enabled_extended: int = 0, onboard_control_sensors_health_extended: int = 0) -> MAVLink_sys_status_message:
         """

@@ -1,0 +1,243 @@
+"""One end of one MAVLink 2 link, sans I/O: ``pack(message) -> bytes``, ``feed(bytes) ->
+list[Received]``.
+
+All the codec state of a link lives in its ``MavlinkLink``: the outgoing sequence number,
+the parse buffer of a byte stream, the signing clock and replay window, the counters. Two
+links (two cores in one process) share nothing. A link never raises on input: malformed
+frames, unknown message ids, values out of range and unsigned or wrongly signed packets are
+logged, counted in ``LinkCounters`` and dropped, and parsing goes on with the next frame.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+from ridsafe.common import messages as m
+from ridsafe.common.codec.signing import SigningConfig, SigningState
+from ridsafe.common.codec.wire import (
+    CRC_LEN,
+    HEADER,
+    HEADER_LEN,
+    IFLAG_SIGNED,
+    SIGNATURE_LEN,
+    STX_V1,
+    STX_V2,
+    Payload,
+    encode_payload,
+    layout,
+    x25_crc,
+)
+from ridsafe.common.errors import WireError
+from ridsafe.common.frozen import quick_init
+
+logger = logging.getLogger(__name__)
+
+
+@quick_init
+@dataclass(frozen=True, slots=True)
+class Received:
+    """One accepted MAVLink message."""
+
+    src_system: int
+    src_component: int
+    message: m.Message
+    signed: bool
+
+
+@dataclass
+class LinkCounters:
+    """What a link accepted and what it dropped, by reason."""
+
+    accepted: int = 0
+    bad_data: int = 0
+    truncated: int = 0
+    unknown_id: int = 0
+    unhandled: int = 0
+    invalid_value: int = 0
+    rejected_signature: int = 0
+    last_error: str = ""
+
+    @property
+    def dropped(self) -> int:
+        return (
+            self.bad_data
+            + self.truncated
+            + self.unknown_id
+            + self.invalid_value
+            + self.rejected_signature
+        )
+
+
+class MavlinkLink:
+    """One end of a MAVLink 2 link, sans I/O.
+
+    ``src_system`` / ``src_component`` stamp outgoing packets. With ``signing`` set, every
+    outgoing packet is signed and incoming packets must carry a valid signature: unsigned
+    or wrongly signed ones are dropped and counted in ``counters.rejected_signature``.
+    """
+
+    def __init__(
+        self, src_system: int, src_component: int, signing: SigningConfig | None = None
+    ) -> None:
+        self._system, self._component, self._seq = src_system, src_component, 0
+        self._incompat_flags = 0 if signing is None else IFLAG_SIGNED
+        self._pending = b""
+        self.counters = LinkCounters()
+        self.signing = signing
+        self._signing = None if signing is None else SigningState(signing)
+
+    @property
+    def src_system(self) -> int:
+        return self._system
+
+    @property
+    def src_component(self) -> int:
+        return self._component
+
+    def pack(self, message: m.Message) -> bytes:
+        """Encode one message as one MAVLink 2 packet and advance the sequence number: the
+        bytes pymavlink's ``pack`` produces, without its per-packet objects. Raises
+        WireError for a message whose values do not fit its fields."""
+        return self.frame(encode_payload(message))
+
+    def frame(self, payload: Payload) -> bytes:
+        """One packet of an encoded payload (``wire.encode_payload``) from this link: its
+        sequence number, its identity, its signature."""
+        msg_id, crc_extra, data = payload
+        seq = self._seq
+        self._seq = (seq + 1) & 0xFF
+        packet = (
+            HEADER.pack(
+                STX_V2,
+                len(data),
+                self._incompat_flags,
+                0,
+                seq,
+                self._system,
+                self._component,
+                msg_id & 0xFFFF,
+                msg_id >> 16,
+            )
+            + data
+        )
+        packet += x25_crc(packet[1:] + crc_extra).to_bytes(2, "little")
+        return packet if self._signing is None else self._signing.sign(packet)
+
+    def pack_all(self, messages: list[m.Message]) -> bytes:
+        return b"".join(self.pack(message) for message in messages)
+
+    def feed(self, data: bytes, end_of_datagram: bool = True) -> list[Received]:
+        """Parse bytes; return the accepted messages.
+
+        Over UDP a MAVLink packet never spans datagrams, so by default a partial packet left
+        at the end of ``data`` is dropped (counted as ``truncated``) instead of swallowing
+        the start of the next datagram. Pass ``end_of_datagram=False`` for a byte stream
+        (serial, TCP) where packets may be split across reads.
+        """
+        data = data if type(data) is bytes else bytes(data)
+        buf = self._pending + data if self._pending else data
+        self._pending = b""
+        received: list[Received] = []
+        i, n = 0, len(buf)
+        while i < n:
+            if buf[i] != STX_V2:
+                i = self._skip_garbage(buf, i)
+                continue
+            if n - i < HEADER_LEN + CRC_LEN:
+                break
+            mlen, incompat = buf[i + 1], buf[i + 2]
+            if incompat & ~IFLAG_SIGNED:
+                self._drop("bad_data", f"unknown incompat_flags 0x{incompat:02x}")
+                i += 1
+                continue
+            end = i + HEADER_LEN + mlen + CRC_LEN
+            if incompat & IFLAG_SIGNED:
+                end += SIGNATURE_LEN
+            if end > n:
+                break
+            consumed, item = self._decode_packet(buf[i:end], mlen)
+            if item is not None:
+                received.append(item)
+            i += consumed
+        if i < n:
+            if end_of_datagram:
+                self._drop("truncated", f"{n - i} bytes of a partial packet")
+            else:
+                self._pending = buf[i:]
+        return received
+
+    def _skip_garbage(self, buf: bytes, i: int) -> int:
+        """Drop bytes up to the next MAVLink 2 start marker; returns where it is."""
+        j = buf.find(b"\xfd", i + 1)
+        j = len(buf) if j < 0 else j
+        what = "a MAVLink 1 packet (MAVLink 2 only)" if buf[i] == STX_V1 else "garbage"
+        self._drop("bad_data", f"{j - i} bytes of {what}")
+        return j
+
+    def _decode_packet(self, packet: bytes, mlen: int) -> tuple[int, Received | None]:
+        """Check and decode one complete packet; returns (bytes consumed, message or None).
+
+        A packet whose CRC does not match consumes one byte only, so a false start marker
+        inside garbage cannot hide the real packet that follows.
+        """
+        src_system, src_component = packet[5], packet[6]
+        msg_id = packet[7] | packet[8] << 8 | packet[9] << 16
+        packet_layout = layout(msg_id)
+        if packet_layout is None:
+            self._drop("unknown_id", f"unknown message id {msg_id} from {src_system}")
+            return len(packet), None
+        crc_end = HEADER_LEN + mlen
+        crc = packet[crc_end] | packet[crc_end + 1] << 8
+        if crc != x25_crc(packet[1:crc_end] + packet_layout.crc_extra_byte):
+            self._drop("bad_data", f"CRC mismatch in message {msg_id} from {src_system}")
+            return 1, None
+        signed = len(packet) > crc_end + CRC_LEN
+        if self.signing is not None and not self._signature_ok(
+            packet, signed, src_system, src_component
+        ):
+            return len(packet), None
+        message = None
+        if packet_layout.decode is not None:
+            try:
+                message = packet_layout.decode(packet_layout.view(packet[HEADER_LEN:crc_end]))
+            except (WireError, ValueError, TypeError, UnicodeDecodeError) as exc:
+                self._drop("invalid_value", f"{packet_layout.name} from {src_system}: {exc}")
+                return len(packet), None
+        if message is None:
+            self.counters.unhandled += 1
+            logger.debug("ignoring %s from %d", packet_layout.name, src_system)
+            return len(packet), None
+        self.counters.accepted += 1
+        return len(packet), Received(src_system, src_component, message, signed)
+
+    def _signature_ok(self, packet: bytes, signed: bool, system: int, component: int) -> bool:
+        """With a key: a valid, fresh signature is required (``SigningState.check``).
+        Without a key: anything goes."""
+        if self._signing is None:
+            return True
+        if not signed:
+            self._drop("rejected_signature", f"unsigned packet from {system}/{component}")
+            return False
+        reason = self._signing.check(packet, system, component)
+        if reason is not None:
+            self._drop("rejected_signature", reason)
+            return False
+        return True
+
+    def _drop(self, kind: str, reason: str) -> None:
+        """Count a drop; warn on the first of each kind and then every 1000th (a stream of
+        garbage must not flood the log), debug otherwise."""
+        count = getattr(self.counters, kind) + 1
+        setattr(self.counters, kind, count)
+        self.counters.last_error = reason
+        level = logging.WARNING if count == 1 or count % 1000 == 0 else logging.DEBUG
+        logger.log(
+            level,
+            "link %d/%d dropped %s (%d so far): %s",
+            self.src_system,
+            self.src_component,
+            kind,
+            count,
+            reason,
+        )

@@ -1,0 +1,201 @@
+"""The ridsafe dialect's own messages (ids 61000-61099): domain message <-> MAVLink fields.
+
+RIDSAFE_RID_FRAME carries a heard F3411 frame whole (bytes, RSSI, sender, transport) from a
+RID transponder to its companion; RIDSAFE_OBSERVATION goes up to the GCS; RIDSAFE_UNSAFE_REGION
+and RIDSAFE_SPOOF_ALERT come down; the LOCKSTEP pair paces a lockstep run over UDP.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ridsafe.common import messages as m
+from ridsafe.common.codec.units import (
+    DEG_E7,
+    ODID_ID_LEN,
+    ODID_UNKNOWN_DIRECTION_CDEG,
+    ODID_UNKNOWN_SPEED_H_CMS,
+    ODID_UNKNOWN_SPEED_V_CMS,
+    CodecTable,
+    Wire,
+    check_finite,
+    check_lat_lon,
+    cms,
+    deg_e7,
+    id20,
+    text,
+    uas_id_bytes,
+    us,
+    wire,
+)
+from ridsafe.common.dialect import ridsafe_v20 as mav
+from ridsafe.common.errors import WireError
+
+#: The longest frame RIDSAFE_RID_FRAME carries: a message pack of 9 (3 + 9 x 25 bytes).
+RID_FRAME_MAX_BYTES = 228
+
+
+def _rid_frame_to(msg: m.RidFrameReport) -> Wire:
+    frame = msg.frame
+    if not 0 < len(frame) <= RID_FRAME_MAX_BYTES:
+        raise WireError(f"RID frame of {len(frame)} bytes, expected 1..{RID_FRAME_MAX_BYTES}")
+    if len(msg.sender_id) > ODID_ID_LEN:
+        raise WireError(f"sender id is {len(msg.sender_id)} bytes, at most {ODID_ID_LEN} fit")
+    return wire(
+        mav.MAVLink_ridsafe_rid_frame_message,
+        msg.rssi_dbm,
+        id20(msg.sender_id),
+        msg.transport,
+        msg.channel,
+        len(frame),
+        list(frame.ljust(RID_FRAME_MAX_BYTES, b"\x00")),
+    )
+
+
+def _rid_frame_from(raw: Any) -> m.RidFrameReport:
+    check_finite("RIDSAFE_RID_FRAME", raw.rssi_dbm)
+    if not 0 < raw.frame_len <= RID_FRAME_MAX_BYTES:
+        raise WireError(f"RIDSAFE_RID_FRAME: frame_len {raw.frame_len}")
+    sender = bytes(raw.id_or_mac).rstrip(b"\x00")
+    frame = bytes(raw.frame[: raw.frame_len])
+    return m.RidFrameReport(frame, raw.rssi_dbm, sender, raw.transport, raw.channel)
+
+
+def _observation_to(msg: m.Observation) -> Wire:
+    course = msg.claimed_course_deg
+    speed_h = msg.claimed_speed_horizontal_m_s
+    speed_v = msg.claimed_speed_vertical_m_s
+    return wire(
+        mav.MAVLink_ridsafe_observation_message,
+        us(msg.t_s),
+        deg_e7(msg.rx_lat_deg),
+        deg_e7(msg.rx_lon_deg),
+        msg.rx_alt_m,
+        deg_e7(msg.claimed_lat_deg),
+        deg_e7(msg.claimed_lon_deg),
+        msg.claimed_alt_m,
+        msg.rid_timestamp_s,
+        msg.rssi_dbm,
+        ODID_UNKNOWN_DIRECTION_CDEG if course is None else round(course * 100.0) % 36000,
+        ODID_UNKNOWN_SPEED_H_CMS if speed_h is None else min(25425, round(speed_h * 100.0)),
+        ODID_UNKNOWN_SPEED_V_CMS if speed_v is None else cms(speed_v),
+        uas_id_bytes(msg.uas_id),
+    )
+
+
+def _observation_from(raw: Any) -> m.Observation:
+    rx_lat, rx_lon = raw.rx_lat / DEG_E7, raw.rx_lon / DEG_E7
+    c_lat, c_lon = raw.claimed_lat / DEG_E7, raw.claimed_lon / DEG_E7
+    check_lat_lon(rx_lat, rx_lon, "RIDSAFE_OBSERVATION receiver")
+    check_lat_lon(c_lat, c_lon, "RIDSAFE_OBSERVATION claimed")
+    check_finite(
+        "RIDSAFE_OBSERVATION", raw.rx_alt, raw.claimed_alt, raw.rid_timestamp, raw.rssi_dbm
+    )
+    return m.Observation(
+        t_s=raw.time_usec / 1e6,
+        rx_lat_deg=rx_lat,
+        rx_lon_deg=rx_lon,
+        rx_alt_m=raw.rx_alt,
+        claimed_lat_deg=c_lat,
+        claimed_lon_deg=c_lon,
+        claimed_alt_m=raw.claimed_alt,
+        rid_timestamp_s=raw.rid_timestamp,
+        rssi_dbm=raw.rssi_dbm,
+        claimed_course_deg=None if raw.claimed_direction > 35999 else raw.claimed_direction / 100,
+        claimed_speed_horizontal_m_s=None
+        if raw.claimed_speed_horizontal == ODID_UNKNOWN_SPEED_H_CMS
+        else raw.claimed_speed_horizontal / 100.0,
+        claimed_speed_vertical_m_s=None
+        if raw.claimed_speed_vertical == ODID_UNKNOWN_SPEED_V_CMS
+        else raw.claimed_speed_vertical / 100.0,
+        uas_id=text(raw.uas_id),
+    )
+
+
+def _region_to(msg: m.UnsafeRegionMsg) -> Wire:
+    return wire(
+        mav.MAVLink_ridsafe_unsafe_region_message,
+        us(msg.t_s),
+        us(msg.valid_until_s),
+        deg_e7(msg.center_lat_deg),
+        deg_e7(msg.center_lon_deg),
+        msg.center_alt_m,
+        list(msg.cov_ned_m2),
+        list(msg.v_ned_m_s),
+        msg.chi2_threshold,
+        msg.alpha,
+        msg.track_id,
+        msg.flags,
+        uas_id_bytes(msg.uas_id),
+    )
+
+
+def _region_from(raw: Any) -> m.UnsafeRegionMsg:
+    lat, lon = raw.center_lat / DEG_E7, raw.center_lon / DEG_E7
+    check_lat_lon(lat, lon, "RIDSAFE_UNSAFE_REGION")
+    cov = tuple(float(c) for c in raw.cov_ned)
+    vel = tuple(float(v) for v in raw.vel_ned)
+    check_finite("RIDSAFE_UNSAFE_REGION", raw.center_alt, raw.chi2_threshold, *cov, *vel)
+    return m.UnsafeRegionMsg(
+        raw.time_usec / 1e6,
+        raw.valid_until_usec / 1e6,
+        lat,
+        lon,
+        raw.center_alt,
+        (cov[0], cov[1], cov[2], cov[3], cov[4], cov[5]),
+        (vel[0], vel[1], vel[2]),
+        raw.chi2_threshold,
+        raw.alpha,
+        raw.track_id,
+        raw.flags,
+        text(raw.uas_id),
+    )
+
+
+def _alert_to(msg: m.SpoofAlert) -> Wire:
+    return wire(
+        mav.MAVLink_ridsafe_spoof_alert_message,
+        us(msg.t_s),
+        msg.statistic,
+        msg.threshold,
+        msg.detector,
+        msg.state,
+        uas_id_bytes(msg.uas_id),
+    )
+
+
+def _alert_from(raw: Any) -> m.SpoofAlert:
+    return m.SpoofAlert(
+        raw.time_usec / 1e6,
+        raw.statistic,
+        raw.threshold,
+        raw.detector,
+        raw.state,
+        text(raw.uas_id),
+    )
+
+
+def _tick_to(msg: m.LockstepTick) -> Wire:
+    return wire(mav.MAVLink_ridsafe_lockstep_tick_message, us(msg.t_s), msg.tick)
+
+
+def _tick_from(raw: Any) -> m.LockstepTick:
+    return m.LockstepTick(raw.time_usec / 1e6, raw.tick)
+
+
+def _done_to(msg: m.LockstepDone) -> Wire:
+    return wire(mav.MAVLink_ridsafe_lockstep_done_message, us(msg.t_s), msg.tick)
+
+
+def _done_from(raw: Any) -> m.LockstepDone:
+    return m.LockstepDone(raw.time_usec / 1e6, raw.tick)
+
+
+CODECS: CodecTable = {
+    m.RidFrameReport: ("RIDSAFE_RID_FRAME", _rid_frame_to, _rid_frame_from),
+    m.Observation: ("RIDSAFE_OBSERVATION", _observation_to, _observation_from),
+    m.UnsafeRegionMsg: ("RIDSAFE_UNSAFE_REGION", _region_to, _region_from),
+    m.SpoofAlert: ("RIDSAFE_SPOOF_ALERT", _alert_to, _alert_from),
+    m.LockstepTick: ("RIDSAFE_LOCKSTEP_TICK", _tick_to, _tick_from),
+    m.LockstepDone: ("RIDSAFE_LOCKSTEP_DONE", _done_to, _done_from),
+}

@@ -1,0 +1,253 @@
+"""The app shell: what every sans-I/O core does with MAVLink bytes, written once.
+
+A core (sim backend, companion, GCS) is ``handle(now_s, inbound) -> outbound`` over named
+endpoints; ``inbound`` and ``outbound`` are ``Datagrams``, ``(endpoint name, bytes)`` pairs.
+The shell owns, per endpoint:
+
+- the codec state of the link (one ``MavlinkLink``: parse buffer, sequence numbers, signing);
+  a channel that other components of the same system also send on (the sim's autopilot and
+  RID transponder share a companion's serial link) has one sending link per component;
+- the sender check: which (system, component) may speak on it; the rest is refused and
+  counted by reason (``ShellCounters.refused``) before the core sees it;
+- the outbox: packets queued by ``send`` / ``broadcast``, joined into datagrams of at most
+  ``MAX_DATAGRAM_BYTES`` (a packet is never split) by ``flush``;
+- counters: datagrams in and out, datagrams for endpoints the core does not have.
+
+Endpoints are added by the core (fixed ones at construction; on demand through
+``open_endpoint``, as the GCS opens one per companion peer) and removed when it forgets a
+peer. Every check a datagram must pass before a core acts on it belongs here, so that one
+change hardens every app.
+
+    shell = AppShell("companion/3")
+    shell.add(Endpoint("autopilot", MavlinkLink(3, 191), accept=from_system(3)))
+    for endpoint, received in shell.receive(inbound):
+        ...                                  # the core's own handling
+    shell.send("autopilot", heartbeat)
+    return shell.flush()
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from collections.abc import Callable, Collection, Iterable, Iterator
+from dataclasses import dataclass, field
+from typing import Protocol
+
+from ridsafe.common import messages as m
+from ridsafe.common.codec import LinkCounters, MavlinkLink, Received, encode_payload
+
+logger = logging.getLogger(__name__)
+
+#: Datagrams stay below a typical path MTU (1500) so none is fragmented on a real network.
+MAX_DATAGRAM_BYTES = 1400
+
+Datagrams = list[tuple[str, bytes]]
+#: Why a sender may not speak on an endpoint (None: it may).
+SenderCheck = Callable[[Received], "str | None"]
+_LINK_FIELDS = tuple(f.name for f in dataclasses.fields(LinkCounters) if f.type == "int")
+
+
+class SansIoCore(Protocol):
+    """What a runner drives: the sim backend, a companion (or a fleet of them), the GCS."""
+
+    def handle(self, now_s: float, inbound: Datagrams) -> Datagrams: ...
+
+
+def join_datagrams(packets: list[bytes], max_bytes: int = MAX_DATAGRAM_BYTES) -> list[bytes]:
+    """Join packets into datagrams of at most ``max_bytes`` (never splitting one; a packet
+    longer than that goes alone)."""
+    out: list[bytes] = []
+    current = bytearray()
+    for packet in packets:
+        if current and len(current) + len(packet) > max_bytes:
+            out.append(bytes(current))
+            current = bytearray()
+        current += packet
+    if current:
+        out.append(bytes(current))
+    return out
+
+
+def from_system(
+    system: int, components: Collection[int] | None = None
+) -> Callable[[Received], str | None]:
+    """A sender check: only ``system`` (and, if given, only ``components`` of it)."""
+
+    def check(received: Received) -> str | None:
+        if received.src_system != system:
+            return "foreign_system"
+        if components is not None and received.src_component not in components:
+            return "other_component"
+        return None
+
+    return check
+
+
+def not_from_systems(systems: Collection[int]) -> Callable[[Received], str | None]:
+    """A sender check: any system but ``systems`` (e.g. 0, the broadcast id, and our own)."""
+
+    def check(received: Received) -> str | None:
+        return "bad_sysid" if received.src_system in systems else None
+
+    return check
+
+
+@dataclass
+class Endpoint:
+    """One named endpoint of a core: its link, who may speak on it, what waits to go out."""
+
+    name: str
+    link: MavlinkLink  # parses what comes in; sends as the core's own identity
+    accept: SenderCheck | None = None
+    #: Other components of this system that send on the same channel, by component id.
+    senders: dict[int, MavlinkLink] = field(default_factory=dict)
+    outbox: list[bytes] = field(default_factory=list)
+
+    def send(self, message: m.Message, component: int | None = None) -> None:
+        """Queue ``message`` from the core's identity, or from ``component``'s."""
+        link = self.link if component is None else self.senders[component]
+        self.outbox.append(link.pack(message))
+
+
+EndpointOpener = Callable[[str], "Endpoint | str | None"]
+
+
+@dataclass
+class ShellCounters:
+    """What the shell took in, sent, and refused (the links count malformed bytes)."""
+
+    datagrams_in: int = 0
+    datagrams_out: int = 0
+    unknown_endpoint: int = 0
+    refused: dict[str, int] = field(default_factory=dict)  # by the sender check's reason
+
+    def as_dict(self) -> dict[str, int]:
+        out = {
+            "datagrams_in": self.datagrams_in,
+            "datagrams_out": self.datagrams_out,
+            "unknown_endpoint": self.unknown_endpoint,
+        }
+        out.update(self.refused)
+        return out
+
+
+class AppShell:
+    """Link multiplexing, per-link codec state, outbox and counters of one core."""
+
+    def __init__(self, app: str, open_endpoint: EndpointOpener | None = None) -> None:
+        """``app`` names the core in log lines; ``open_endpoint(name)`` is asked for an
+        endpoint the shell does not have: it returns the new endpoint, or why the datagram
+        is refused (counted under that reason), or None for a name that means nothing to
+        the core (counted as ``unknown_endpoint``)."""
+        self.app = app
+        self.endpoints: dict[str, Endpoint] = {}
+        self.counters = ShellCounters()
+        self._open_endpoint = open_endpoint
+        self._retired = LinkCounters()
+
+    def add(self, endpoint: Endpoint) -> Endpoint:
+        if endpoint.name in self.endpoints:
+            raise ValueError(f"{self.app}: endpoint {endpoint.name!r} exists already")
+        self.endpoints[endpoint.name] = endpoint
+        return endpoint
+
+    def remove(self, name: str) -> Endpoint | None:
+        """Forget an endpoint (its link's counters stay in ``link_totals``)."""
+        endpoint = self.endpoints.pop(name, None)
+        if endpoint is not None:
+            _add_link_counters(self._retired, endpoint.link.counters)
+        return endpoint
+
+    # -- inbound ----------------------------------------------------------------------------
+
+    def receive(self, inbound: Iterable[tuple[str, bytes]]) -> Iterator[tuple[Endpoint, Received]]:
+        """Every accepted message of ``inbound``, in order, with the endpoint it came on."""
+        for name, data in inbound:
+            endpoint = self.endpoints.get(name) or self._open(name)
+            if endpoint is None:
+                continue
+            self.counters.datagrams_in += 1
+            for received in endpoint.link.feed(data):
+                reason = None if endpoint.accept is None else endpoint.accept(received)
+                if reason is None:
+                    yield endpoint, received
+                else:
+                    self._refuse(endpoint, received, reason)
+
+    def _open(self, name: str) -> Endpoint | None:
+        opened = None if self._open_endpoint is None else self._open_endpoint(name)
+        if isinstance(opened, Endpoint):
+            return self.add(opened)
+        if opened is None:
+            self._unknown(name)
+        else:
+            self._count_refused(opened, f"datagram on {name!r}")
+        return None
+
+    def _unknown(self, name: str) -> None:
+        self.counters.unknown_endpoint += 1
+        count = self.counters.unknown_endpoint
+        level = logging.WARNING if count == 1 or count % 1000 == 0 else logging.DEBUG
+        logger.log(
+            level, "%s: datagram on unknown endpoint %r dropped (%d so far)", self.app, name, count
+        )
+
+    def _refuse(self, endpoint: Endpoint, received: Received, reason: str) -> None:
+        sender = f"{received.src_system}/{received.src_component}"
+        what = f"{type(received.message).__name__} from {sender} on {endpoint.name}"
+        self._count_refused(reason, what)
+
+    def _count_refused(self, reason: str, what: str) -> None:
+        count = self.counters.refused.get(reason, 0) + 1
+        self.counters.refused[reason] = count
+        level = logging.WARNING if count == 1 or count % 1000 == 0 else logging.DEBUG
+        logger.log(level, "%s: %s refused: %s (%d so far)", self.app, what, reason, count)
+
+    # -- outbound ---------------------------------------------------------------------------
+
+    def send(self, name: str, message: m.Message, component: int | None = None) -> None:
+        self.endpoints[name].send(message, component)
+
+    def broadcast(self, names: Iterable[str], messages: list[m.Message]) -> None:
+        """Queue ``messages`` on every endpoint of ``names``: each message is encoded once
+        and framed by each endpoint's own link (its sequence numbers, its signature)."""
+        if not messages:
+            return
+        payloads = [encode_payload(message) for message in messages]
+        for name in names:
+            endpoint = self.endpoints[name]
+            endpoint.outbox.extend(endpoint.link.frame(payload) for payload in payloads)
+
+    def flush(self) -> Datagrams:
+        """Everything queued since the last flush, as datagrams per endpoint."""
+        out: Datagrams = []
+        for name, endpoint in self.endpoints.items():
+            if endpoint.outbox:
+                out.extend((name, datagram) for datagram in join_datagrams(endpoint.outbox))
+                endpoint.outbox = []
+        self.counters.datagrams_out += len(out)
+        return out
+
+    # -- counters ---------------------------------------------------------------------------
+
+    def link_counters(self) -> dict[str, LinkCounters]:
+        """The counters of every endpoint's link, by endpoint."""
+        return {name: endpoint.link.counters for name, endpoint in self.endpoints.items()}
+
+    def link_totals(self) -> LinkCounters:
+        """Every link's counters summed, endpoints removed since included."""
+        total = dataclasses.replace(self._retired)
+        for endpoint in self.endpoints.values():
+            _add_link_counters(total, endpoint.link.counters)
+        return total
+
+
+def link_counter_values(counters: LinkCounters) -> dict[str, int]:
+    """The integer counters of a link, by name."""
+    return {name: int(getattr(counters, name)) for name in _LINK_FIELDS}
+
+
+def _add_link_counters(total: LinkCounters, more: LinkCounters) -> None:
+    for name in _LINK_FIELDS:
+        setattr(total, name, getattr(total, name) + getattr(more, name))
