@@ -2,8 +2,8 @@ r"""The GCS core, sans I/O: ``handle(now_s, inbound) -> outbound``.
 
 One UDP port that every companion talks to, like a real ground station on 14550. Inbound
 endpoint names are ``"companions@<peer>"``, ``<peer>`` an opaque sender key (``host:port``
-over UDP, ``c3`` in an in-process router). Per peer the GCS keeps one ``MavlinkLink`` (the
-parser's stream state, and with signing the replay window), learns the MAVLink system ids
+over UDP, ``c3`` in an in-process router). Per peer the GCS keeps one shell endpoint (its link:
+the parser state, and with signing the replay window), learns the MAVLink system ids
 that speak through it, and treats it as live while it is heard within ``peer_timeout_s``.
 
 Each call:
@@ -46,6 +46,13 @@ from ridsafe.common import messages as m
 from ridsafe.common.codec import LinkCounters, MavlinkLink, Received, SigningConfig
 from ridsafe.common.frames import GeodeticOrigin
 from ridsafe.common.logsink import LogSink
+from ridsafe.common.shell import (
+    AppShell,
+    Datagrams,
+    Endpoint,
+    link_counter_values,
+    not_from_systems,
+)
 from ridsafe.gcs.config import GCS_COMPONENT_ID, GCS_SYSTEM_ID, ClockSource, GcsConfig
 from ridsafe.gcs.ingest import Ingest, RateLimitedLog, check_values
 from ridsafe.gcs.pipeline_api import (
@@ -61,15 +68,12 @@ from ridsafe.gcs.pipeline_api import (
 logger = logging.getLogger(__name__)
 
 COMPANIONS_ENDPOINT = "companions"
-MAX_DATAGRAM_BYTES = 1400
 ENU_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 _UPPER = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
-_LINK_FIELDS = tuple(f.name for f in dataclasses.fields(LinkCounters) if f.type == "int")
 _EPS_S = 1e-9
 #: How a detector is named in the log (10,000 detector records in a 120 s, 16-aircraft run).
 _DETECTOR_NAMES = {d: d.name.lower() for d in m.RidsafeDetector}
 
-Datagrams = list[tuple[str, bytes]]
 Cov6 = tuple[float, float, float, float, float, float]
 
 
@@ -123,22 +127,19 @@ def _region_is_finite(region: UnsafeRegion) -> bool:
 @dataclass
 class _Peer:
     key: str
-    link: MavlinkLink
+    endpoint: Endpoint  # the shell's: link, outbox
     sysids: set[int] = field(default_factory=set)
     last_heard_s: float | None = None  # runner time of the last accepted packet
     live: bool = False
-    out: list[bytes] = field(default_factory=list)
 
 
 @dataclass
 class GcsCounters:
-    """What the GCS itself refused or did (the links and ingest count their own)."""
+    """What the GCS itself refused or did (the shell counts unknown endpoints, refused
+    senders and datagrams; the links and ingest count their own)."""
 
-    unknown_endpoint: int = 0
-    peer_limit: int = 0
     peers_evicted: int = 0
     peers_timed_out: int = 0
-    bad_sysid: int = 0
     ignored_messages: int = 0
     cycles: int = 0
     cycles_skipped: int = 0
@@ -147,7 +148,6 @@ class GcsCounters:
     alerts_sent: int = 0
     regions_sent: int = 0
     heartbeats_sent: int = 0
-    datagrams_out: int = 0
 
 
 class _TimeBase:
@@ -184,9 +184,9 @@ class Gcs:
         self.signing = signing
         self.ingest = Ingest(config, origin)
         self.counters = GcsCounters()
-        self._peers: dict[str, _Peer] = {}
+        self.shell = AppShell("gcs", open_endpoint=self._open_peer)
+        self._peers: dict[str, _Peer] = {}  # by endpoint name, peer_endpoint(key)
         self._sysid_peer: dict[int, str] = {}
-        self._retired_links = LinkCounters()
         self._time = _TimeBase(config.clock)
         self._next_cycle: int | None = 0 if config.clock is ClockSource.LOCAL else None
         self._next_heartbeat_s = 0.0
@@ -201,7 +201,7 @@ class Gcs:
 
     @property
     def live_peers(self) -> tuple[str, ...]:
-        return tuple(k for k, p in self._peers.items() if p.live)
+        return tuple(p.key for p in self._peers.values() if p.live)
 
     @property
     def sysid_peers(self) -> dict[int, str]:
@@ -214,15 +214,13 @@ class Gcs:
 
     def link_counters(self) -> LinkCounters:
         """Every peer link's counters summed (peers evicted since included)."""
-        total = dataclasses.replace(self._retired_links)
-        for peer in self._peers.values():
-            _add_link_counters(total, peer.link.counters)
-        return total
+        return self.shell.link_totals()
 
     def counter_values(self) -> dict[str, int]:
-        links = self.link_counters()
-        out = {f"link_{name}": int(getattr(links, name)) for name in _LINK_FIELDS}
+        links = link_counter_values(self.link_counters())
+        out = {f"link_{name}": value for name, value in links.items()}
         out.update(self.ingest.counters.as_dict())
+        out.update(self.shell.counters.as_dict())
         out.update(dataclasses.asdict(self.counters))
         out["peers_known"] = len(self._peers)
         out["peers_live"] = len(self.live_peers)
@@ -232,8 +230,8 @@ class Gcs:
 
     def handle(self, now_s: float, inbound: Iterable[tuple[str, bytes]]) -> Datagrams:
         """Consume inbound datagrams, run what is due at ``now_s``, return outbound datagrams."""
-        for name, data in inbound:
-            self._receive(now_s, name, data)
+        for endpoint, received in self.shell.receive(inbound):
+            self._accept(now_s, self._peers[endpoint.name], received)
         self._expire_peers(now_s)
         sim_now = self._time.sim_s(now_s)
         if sim_now is not None:
@@ -246,7 +244,7 @@ class Gcs:
             )
             self._broadcast([heartbeat])
             self.counters.heartbeats_sent += len(self.live_peers)
-        return self._flush()
+        return self.shell.flush()
 
     def finish(self, now_s: float) -> None:
         """Log the final ``/app/counters`` (call once when the run ends)."""
@@ -255,36 +253,26 @@ class Gcs:
 
     # -- inbound ------------------------------------------------------------------------------
 
-    def _receive(self, now_s: float, name: str, data: bytes) -> None:
+    def _open_peer(self, name: str) -> Endpoint | str | None:
+        """The shell asks for an endpoint it does not have: a new companion peer (None: not
+        a peer's name; "peer_limit": ``max_peers`` peers, none dead to make room)."""
         base, sep, key = name.partition("@")
         if base != COMPANIONS_ENDPOINT or not sep or not key:
-            self.counters.unknown_endpoint += 1
-            self._warn.warn(now_s, "endpoint", f"datagram on unknown endpoint {name!r} dropped")
-            return
-        peer = self._peers.get(key) or self._new_peer(now_s, key)
-        if peer is None:
-            return
-        for received in peer.link.feed(data):
-            self._accept(now_s, peer, received)
-
-    def _new_peer(self, now_s: float, key: str) -> _Peer | None:
-        if len(self._peers) >= self.config.max_peers and not self._evict_dead_peer():
-            self.counters.peer_limit += 1
-            limit = self.config.max_peers
-            message = f"datagram from new peer {key} dropped: {limit} peers, none dead"
-            self._warn.warn(now_s, "peer_limit", message)
             return None
-        peer = _Peer(key, MavlinkLink(GCS_SYSTEM_ID, GCS_COMPONENT_ID, self.signing))
-        self._peers[key] = peer
-        return peer
+        if len(self._peers) >= self.config.max_peers and not self._evict_dead_peer():
+            return "peer_limit"
+        link = MavlinkLink(GCS_SYSTEM_ID, GCS_COMPONENT_ID, self.signing)
+        endpoint = Endpoint(name, link, accept=not_from_systems((0, GCS_SYSTEM_ID)))
+        self._peers[name] = _Peer(key, endpoint)
+        return endpoint
 
     def _evict_dead_peer(self) -> bool:
         dead = [p for p in self._peers.values() if not p.live]
         if not dead:
             return False
         victim = min(dead, key=lambda p: -math.inf if p.last_heard_s is None else p.last_heard_s)
-        del self._peers[victim.key]
-        _add_link_counters(self._retired_links, victim.link.counters)
+        del self._peers[victim.endpoint.name]
+        self.shell.remove(victim.endpoint.name)
         for sysid in victim.sysids:
             if self._sysid_peer.get(sysid) == victim.key:
                 del self._sysid_peer[sysid]
@@ -292,11 +280,7 @@ class Gcs:
         return True
 
     def _accept(self, now_s: float, peer: _Peer, received: Received) -> None:
-        sysid = received.src_system
-        if sysid in (0, GCS_SYSTEM_ID):
-            self.counters.bad_sysid += 1
-            self._warn.warn(now_s, "sysid", f"peer {peer.key}: packet from system {sysid} dropped")
-            return
+        sysid = received.src_system  # not 0 nor ours: the endpoint's sender check
         self._heard(now_s, peer, sysid)
         message = received.message
         if isinstance(message, m.Observation):
@@ -314,7 +298,7 @@ class Gcs:
             return
         self._sysid_peer[sysid] = peer.key
         peer.sysids.add(sysid)
-        old = self._peers.get(previous) if previous is not None else None
+        old = self._peers.get(peer_endpoint(previous)) if previous is not None else None
         if old is not None:
             old.sysids.discard(sysid)
             logger.info("system %d moved from peer %s to %s", sysid, old.key, peer.key)
@@ -485,21 +469,8 @@ class Gcs:
     # -- outbound -----------------------------------------------------------------------------
 
     def _broadcast(self, messages: list[m.Message]) -> None:
-        if not messages:
-            return
-        for peer in self._peers.values():
-            if peer.live:
-                peer.out.extend(peer.link.pack(msg) for msg in messages)
-
-    def _flush(self) -> Datagrams:
-        out: Datagrams = []
-        for peer in self._peers.values():
-            if peer.out:
-                name = peer_endpoint(peer.key)
-                out.extend((name, d) for d in _datagrams(peer.out))
-                peer.out = []
-        self.counters.datagrams_out += len(out)
-        return out
+        live = [name for name, peer in self._peers.items() if peer.live]
+        self.shell.broadcast(live, messages)
 
 
 # --- helpers ---------------------------------------------------------------------------------
@@ -552,22 +523,3 @@ def _region_record(region: UnsafeRegion, sent: m.UnsafeRegionMsg) -> dict[str, o
         "semi_axes_m": np.asarray(region.semi_axes_m, dtype=np.float64).tolist(),
         "flags": sent.flags,
     }
-
-
-def _add_link_counters(total: LinkCounters, more: LinkCounters) -> None:
-    for name in _LINK_FIELDS:
-        setattr(total, name, getattr(total, name) + getattr(more, name))
-
-
-def _datagrams(packets: list[bytes]) -> list[bytes]:
-    """Join packets into datagrams of at most MAX_DATAGRAM_BYTES (never splitting one)."""
-    out: list[bytes] = []
-    current = bytearray()
-    for packet in packets:
-        if current and len(current) + len(packet) > MAX_DATAGRAM_BYTES:
-            out.append(bytes(current))
-            current = bytearray()
-        current += packet
-    if current:
-        out.append(bytes(current))
-    return out
