@@ -14,10 +14,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ridsafe.common import codec, f3411, frames
+from ridsafe.common import frames
 from ridsafe.common import messages as m
-from ridsafe.common.errors import RidsafeError, WireError
-from ridsafe.common.frozen import quick_init
 
 ODID_EPOCH_UNIX_S = 1_546_300_800  # 2019-01-01T00:00:00Z
 RID_LOCATION_PERIOD_S = 1.0
@@ -130,57 +128,3 @@ def system_update(
 
 def operator_id(operator: str) -> m.OdidOperatorId:
     return m.OdidOperatorId(id_or_mac=b"", operator_id_type=0, operator_id=operator)
-
-
-# --- receiving -----------------------------------------------------------------------------
-
-MESSAGE_PACK_NAME = f3411.MessageType.MESSAGE_PACK.mavlink_name
-
-
-@quick_init
-@dataclass(frozen=True)
-class PackContents:
-    """The messages read from a message pack, and why the others could not be read."""
-
-    messages: tuple[m.Message, ...]
-    errors: tuple[str, ...] = ()
-
-
-def messages_in_pack(pack: m.OdidRaw, only: f3411.MessageType | None = None) -> PackContents:
-    """The messages inside a received OPEN_DRONE_ID_MESSAGE_PACK (those of type ``only``, if
-    given), each with the pack's ``id_or_mac``. A message that does not decode is skipped
-    and named in ``errors`` (the others still count); a malformed pack raises RidsafeError."""
-    if pack.name != MESSAGE_PACK_NAME:
-        raise WireError(f"expected {MESSAGE_PACK_NAME}, got {pack.name}")
-    fields = dict(pack.fields)
-    size, count = int(str(fields["single_message_size"])), int(str(fields["msg_pack_size"]))
-    if size != f3411.MESSAGE_SIZE:
-        raise WireError(f"message pack of {size}-byte messages, expected {f3411.MESSAGE_SIZE}")
-    body = _octets(fields["messages"])[: count * size]
-    id_or_mac = list(_octets(fields["id_or_mac"]))
-    messages: list[m.Message] = []
-    errors: list[str] = []
-    for index in range(len(body) // size):
-        part = body[index * size : (index + 1) * size]
-        try:
-            if only is not None and f3411.message_type(part) is not only:
-                continue
-            name, values = f3411.decode(part)
-            messages.append(codec.message_from_fields(name, dict(values, id_or_mac=id_or_mac)))
-        except (RidsafeError, ValueError, TypeError) as exc:
-            errors.append(f"message {index}: {exc}")
-    return PackContents(tuple(messages), tuple(errors))
-
-
-def location_in_pack(pack: m.OdidRaw) -> PackContents:
-    """The LOCATIONs inside a received message pack (at most one in a valid pack)."""
-    return messages_in_pack(pack, f3411.MessageType.LOCATION)
-
-
-def _octets(value: object) -> bytes:
-    if isinstance(value, bytes | bytearray | list | tuple):
-        try:
-            return bytes(value)
-        except (TypeError, ValueError) as exc:
-            raise WireError(f"expected bytes: {exc}") from exc
-    raise WireError(f"expected bytes, got {type(value).__name__}")
