@@ -53,8 +53,8 @@ from ridsafe.gcs.pipeline_api import (
     CycleOutput,
     FloatArray,
     GcsPipeline,
+    ObservedClaim,
     TrackEstimate,
-    Transmission,
     UnsafeRegion,
 )
 
@@ -392,7 +392,7 @@ class Gcs:
         self._log_output(now_s, output, regions)
 
     def _step_pipeline(
-        self, now_s: float, closed: list[Transmission]
+        self, now_s: float, closed: list[ObservedClaim]
     ) -> tuple[CycleOutput, str | None]:
         try:
             return self.pipeline.step(now_s, closed), None

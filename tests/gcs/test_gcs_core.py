@@ -28,8 +28,8 @@ from ridsafe.gcs.pipeline_api import (
     AlertChange,
     CycleOutput,
     DetectorResult,
+    ObservedClaim,
     TrackEstimate,
-    Transmission,
     UnsafeRegion,
     readonly,
 )
@@ -61,11 +61,11 @@ class FakePipeline:
         self.delete_at_s = delete_at_s
         self.fail_at_s = fail_at_s
         self.center_enu_m = center_enu_m
-        self.calls: list[tuple[float, tuple[Transmission, ...]]] = []
+        self.calls: list[tuple[float, tuple[ObservedClaim, ...]]] = []
         self.raised = False
         self.deleted = False
 
-    def step(self, now_s: float, transmissions: Sequence[Transmission]) -> CycleOutput:
+    def step(self, now_s: float, transmissions: Sequence[ObservedClaim]) -> CycleOutput:
         self.calls.append((now_s, tuple(transmissions)))
         if self.fail_at_s is not None and abs(now_s - self.fail_at_s) < 1e-9:
             raise RuntimeError("numerical trouble")

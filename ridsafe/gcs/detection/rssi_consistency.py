@@ -1,4 +1,4 @@
-r"""Spoofing detection: does a broadcast's claimed position agree with the physics of the radio?
+r"""Spoofing detectors on RSSI: does a claimed position agree with the physics of the radio?
 
 Every reception i of a transmission claimed at c, heard at r_i with RSSI z_i, implies a
 transmit power (paper eq. (8), d in metres)::
@@ -46,17 +46,17 @@ from numpy.typing import NDArray
 from scipy.special import chdtrc, ndtri
 
 from ridsafe.common.messages import RidsafeDetector
-from ridsafe.gcs.detection_kernels import observe_kernel, observe_params
-from ridsafe.gcs.multilateration import DB_PER_LN
-from ridsafe.gcs.pipeline_api import DetectorResult, Transmission
-from ridsafe.gcs.pipeline_config import DetectionConfig
+from ridsafe.common.pathloss import DB_PER_LN
+from ridsafe.gcs.detection.rssi_consistency_kernels import observe_kernel, observe_params
+from ridsafe.gcs.pipeline_api import DetectorResult, ObservedClaim
+from ridsafe.gcs.pipeline_config import DetectionConfig, PipelineConfig
 
 FloatArray = NDArray[np.float64]
 
 __all__ = [
     "ImpliedPowers",
     "PairNis",
-    "TransmitterMonitor",
+    "RssiConsistencyDetectors",
     "implied_powers",
     "offset_score_test",
     "spread_test",
@@ -194,12 +194,23 @@ class PairNis:
         return float(nis.max()) if nis.shape[0] else 0.0
 
 
-class TransmitterMonitor:
-    """All detectors' memory for one claimed transmitter (benign or not).
+class RssiConsistencyDetectors:
+    """The five detectors above for one claimed transmitter (benign or not), run together by
+    one compiled kernel (``rssi_consistency_kernels.observe_kernel``) on every claim heard
+    by at least ``min_receivers``.
 
-    The window keeps at most ``RING`` transmissions (64: a transmitter broadcasting faster
-    than 6 Hz sees its window shortened to the latest 64).
+    The window keeps at most ``RING`` claims (64: a transmitter broadcasting faster than
+    6 Hz sees its window shortened to the latest 64).
     """
+
+    #: What this bank reports, in the order of ``observe``'s results.
+    DETECTORS = (
+        RidsafeDetector.NIS,
+        RidsafeDetector.POWER_SPREAD,
+        RidsafeDetector.NIS_WINDOW,
+        RidsafeDetector.CUSUM,
+        RidsafeDetector.MLAT,
+    )
 
     RING = 64
 
@@ -224,26 +235,33 @@ class TransmitterMonitor:
         )
         self.last_offset_enu_m = np.zeros(3)  # the MLAT window's delta^ (claimed - estimated)
 
-    def observe(self, tx: Transmission) -> tuple[DetectorResult, ...]:
-        """Run every detector on one transmission (needs ``min_receivers``)."""
+    @classmethod
+    def for_transmitter(cls, uas_id: str, cfg: PipelineConfig) -> RssiConsistencyDetectors:
+        """The bank of one claimed transmitter (its registry entry: ``detection/registry.py``)."""
+        return cls(uas_id, cfg.detection, cfg.rssi_sigma_db)
+
+    def observe(self, claim: ObservedClaim) -> tuple[DetectorResult, ...]:
+        """Run every detector on one claim (needs ``min_receivers``)."""
         cfg = self.cfg
-        if tx.n_receivers < cfg.min_receivers:
+        if claim.n_receivers < cfg.min_receivers:
             return ()
         if self._y_ref is None:
-            ip = implied_powers(tx.claimed_p_enu_m, tx.rx_p_enu_m, tx.rssi_dbm, self.sigma_db, cfg)
+            ip = implied_powers(
+                claim.claimed_p_enu_m, claim.rx_p_enu_m, claim.rssi_dbm, self.sigma_db, cfg
+            )
             self._y_ref = float(np.median(ip.y))
         pairs = self.pairs
         out = observe_kernel(
-            np.ascontiguousarray(tx.claimed_p_enu_m),
-            np.ascontiguousarray(tx.rx_p_enu_m),
-            np.ascontiguousarray(tx.rssi_dbm),
-            np.ascontiguousarray(tx.rx_sysid, dtype=np.int64),
+            np.ascontiguousarray(claim.claimed_p_enu_m),
+            np.ascontiguousarray(claim.rx_p_enu_m),
+            np.ascontiguousarray(claim.rssi_dbm),
+            np.ascontiguousarray(claim.rx_sysid, dtype=np.int64),
             pairs.x,
             pairs.P,
             pairs.started,
             self._ring,
             self._t,
-            tx.t_s,
+            claim.t_s,
             self._y_ref,
             self._params,
         )

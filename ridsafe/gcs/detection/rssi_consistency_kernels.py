@@ -1,44 +1,31 @@
-"""Compiled (numba) kernel of one transmission through every detector of ``detection.py``.
+"""Compiled (numba) kernel of one observed claim through every RSSI-consistency detector.
 
-Same equations as the numpy functions there (``implied_powers``, ``sufficient_statistics``,
-``spread_test``, ``offset_score_test``, ``PairNis.step``), which the tests compare against; one
-call per transmission instead of ~60 numpy calls. Also the pipeline's check that a
-transmission's values are finite (``all_finite``: one call instead of eight numpy calls) and
-the track-start grid's costs. After editing, delete ``ridsafe/gcs/__pycache__/*.nb[ci]``
-(numba's cache does not track other modules).
+Same equations as the numpy functions of ``rssi_consistency.py`` (``implied_powers``,
+``sufficient_statistics``, ``spread_test``, ``offset_score_test``, ``PairNis.step``), which
+the tests compare against; one call per claim instead of ~60 numpy calls. After editing,
+delete ``ridsafe/gcs/detection/__pycache__/*.nb[ci]`` (numba's cache does not track other
+modules).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any, TypeVar, cast
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
-FloatArray = NDArray[np.float64]
-_F = TypeVar("_F", bound=Callable[..., Any])
+from ridsafe.common.pathloss import DB_PER_LN
+from ridsafe.gcs.jit import jit
 
-__all__ = ["ROW", "all_finite", "grid_costs", "observe_kernel", "observe_params", "score_from_sums"]
+FloatArray = NDArray[np.float64]
+
+__all__ = ["ROW", "observe_kernel", "observe_params", "score_from_sums"]
 
 ROW = 19  # n, sw, swy, swyy, swg (3), swgy (3), swgg (9)
-DB_PER_LN = 20.0 / math.log(10.0)
 RANK_TOL = 1e-9
 
 
-def _jit(fn: _F) -> _F:
-    return cast(_F, njit(cache=True)(fn))
-
-
-def _jit_fast(fn: _F) -> _F:
-    """Like ``_jit`` with fastmath (reassociation): for the grid only, whose sums need no
-    bit-exact order."""
-    return cast(_F, njit(cache=True, fastmath=True)(fn))
-
-
-@_jit
+@jit
 def score_from_sums(s: FloatArray) -> tuple[float, int, float, int, FloatArray]:
     """(spread T, its dof, offset score T, its rank, delta^ (3,)) from one row of sums."""
     sw = s[1]
@@ -67,7 +54,7 @@ def score_from_sums(s: FloatArray) -> tuple[float, int, float, int, FloatArray]:
     return rss, int(s[0]) - 1, T, rank, delta
 
 
-@_jit
+@jit
 def _tx_row(
     claimed: FloatArray,
     rx: FloatArray,
@@ -125,7 +112,7 @@ def observe_params(
     return np.array([window_s, s2, pos2, loss, nis_q, nis_r, nis_p0], dtype=np.float64)
 
 
-@_jit
+@jit
 def observe_kernel(
     claimed: FloatArray,
     rx: FloatArray,
@@ -175,52 +162,3 @@ def observe_kernel(
     spread, dof, one, rank_one, _ = score_from_sums(row)
     wspread, wdof, win, rank_win, delta = score_from_sums(window)
     return nis_max, spread, dof, wspread, wdof, one, rank_one, win, rank_win, delta
-
-
-@_jit
-def all_finite(claimed: FloatArray, rx: FloatArray, rssi: FloatArray, rx_t: FloatArray) -> bool:
-    """Is every value of one transmission's arrays finite?"""
-    return bool(
-        np.isfinite(claimed).all()
-        and np.isfinite(rx).all()
-        and np.isfinite(rssi).all()
-        and np.isfinite(rx_t).all()
-    )
-
-
-@_jit_fast
-def _grid_costs(
-    xy: FloatArray, altitudes: FloatArray, rx: FloatArray, z: FloatArray, loss: float
-) -> tuple[FloatArray, FloatArray]:
-    n_a, n_g, k = altitudes.shape[0], xy.shape[0], rx.shape[0]
-    cost = np.empty((n_a, n_g))
-    power = np.empty((n_a, n_g))
-    scale = 10.0 / math.log(10.0)
-    y = np.empty(k)
-    h2 = np.empty(k)
-    for g in range(n_g):
-        for i in range(k):
-            h2[i] = (xy[g, 0] - rx[i, 0]) ** 2 + (xy[g, 1] - rx[i, 1]) ** 2
-        for a in range(n_a):
-            total = 0.0
-            for i in range(k):
-                d2 = max(h2[i] + (altitudes[a] - rx[i, 2]) ** 2, 1.0)
-                y[i] = z[i] + scale * math.log(d2) + loss
-                total += y[i]
-            mean = total / k
-            c = 0.0
-            for i in range(k):
-                c += (y[i] - mean) ** 2
-            cost[a, g] = c
-            power[a, g] = mean
-    return cost, power
-
-
-def grid_costs(
-    xy: FloatArray, altitudes: FloatArray, rx: FloatArray, z: FloatArray, loss: float
-) -> tuple[FloatArray, FloatArray]:
-    """For the track-start grid (``initiation.py``): at every cell and altitude, the profiled
-    power Pt^ = mean(y) and C = sum (y - Pt^)^2 of the implied powers y_i = z_i +
-    20 log10(max(d_i, 1)) + L (equal weights; divide by s^2 outside): (A, G) each."""
-    out: tuple[FloatArray, FloatArray] = _grid_costs(xy, altitudes, rx, z, loss)
-    return out

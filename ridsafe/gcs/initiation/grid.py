@@ -33,8 +33,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ridsafe.common.pathloss import LOSS_AT_1M_2400MHZ_DB
-from ridsafe.gcs.detection_kernels import grid_costs
-from ridsafe.gcs.pipeline_api import Transmission
+from ridsafe.gcs.initiation.grid_kernels import grid_costs
+from ridsafe.gcs.pipeline_api import ObservedClaim
 
 FloatArray = NDArray[np.float64]
 
@@ -69,12 +69,12 @@ class _Cells:
 
 
 def init_windows(
-    txs: Sequence[Transmission], min_receivers: int, after_s: float = -np.inf
-) -> list[list[Transmission]]:
+    claims: Sequence[ObservedClaim], min_receivers: int, after_s: float = -np.inf
+) -> list[list[ObservedClaim]]:
     """Candidate groups of transmissions for the grid, oldest first: each usable transmission
     (>= ``min_receivers``) heard after ``after_s`` with the usable ones up to ``INIT_SPAN_S``
     before it."""
-    usable = [tx for tx in txs if tx.n_receivers >= min_receivers]
+    usable = [claim for claim in claims if claim.n_receivers >= min_receivers]
     return [
         [u for u in usable if last.t_s - INIT_SPAN_S <= u.t_s <= last.t_s]
         for last in usable
@@ -186,7 +186,7 @@ def _fine_window(
 
 
 def grid_posterior(
-    txs: Sequence[Transmission],
+    claims: Sequence[ObservedClaim],
     altitudes_m: Sequence[float],
     sigma_db: float,
     cell_m: float = 50.0,
@@ -195,8 +195,8 @@ def grid_posterior(
     max_seeds: int = 6,
 ) -> list[GridSeed]:
     """One seed per retained posterior mode (module docstring); weights sum to 1."""
-    rx = np.ascontiguousarray(np.vstack([tx.rx_p_enu_m for tx in txs]))
-    z = np.ascontiguousarray(np.concatenate([tx.rssi_dbm for tx in txs]))
+    rx = np.ascontiguousarray(np.vstack([claim.rx_p_enu_m for claim in claims]))
+    z = np.ascontiguousarray(np.concatenate([claim.rssi_dbm for claim in claims]))
     s2 = sigma_db**2
     coarse, shape = _coarse_grid(rx, z, altitudes_m, s2, cell_m, margin_m)
     modes = sorted(
@@ -204,7 +204,7 @@ def grid_posterior(
         for a, c in enumerate(coarse)
         for i in _local_minima(c.cost.reshape(shape))
     )[:max_seeds]
-    span = max(tx.t_s for tx in txs) - min(tx.t_s for tx in txs)
+    span = max(claim.t_s for claim in claims) - min(claim.t_s for claim in claims)
     blur = (MAX_SPEED_M_S * span / 2.0) ** 2 * np.eye(2)
     xy = coarse[0].xy  # the same cells at every altitude
     centres = xy[[i for _, _, i in modes]]

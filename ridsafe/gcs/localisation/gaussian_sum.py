@@ -1,6 +1,9 @@
-r"""The default localiser: a Gaussian sum of RSSI IMMs (CV + CA, transmit power as a state).
+r"""Our estimator (the default, ``pipeline.estimator: rssi_imm``): a Gaussian sum of RSSI IMMs.
 
-Each hypothesis h is an IMM (``imm.py``) whose mode filters update on the raw RSSI of every
+IMMs of CV + CA with the transmit power as a state, started (``start``) from the grid
+posterior of ``initiation/grid.py``.
+
+Each hypothesis h is an IMM (``tracking/imm.py``) whose mode filters update on the raw RSSI of every
 receiver by iterated posterior linearisation (``rssi_update.py``). Why a sum: receivers flying
 near the transmitter's height, or clustered at depots, leave several places (mirror
 altitudes, a curve of positions) that explain the RSSI equally well; one Gaussian commits to
@@ -38,19 +41,20 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from ridsafe.gcs import imm, mixture_kernels
-from ridsafe.gcs.imm import Gaussian, ImmModel, ImmState, ModeUpdate
-from ridsafe.gcs.initiation import GridSeed
-from ridsafe.gcs.motion_models import ACC, POS, VEL, MotionModel
-from ridsafe.gcs.pipeline_api import Transmission
-from ridsafe.gcs.pipeline_config import PipelineConfig
-from ridsafe.gcs.rssi_update import (
+from ridsafe.gcs.initiation.grid import GridSeed, grid_posterior, init_windows, spread_m
+from ridsafe.gcs.localisation import mixture_kernels
+from ridsafe.gcs.localisation.rssi_update import (
     RssiMeasurement,
     gate_receptions,
     iplf_iterate,
     iplf_update,
     linearise,
 )
+from ridsafe.gcs.pipeline_api import ObservedClaim
+from ridsafe.gcs.pipeline_config import PipelineConfig
+from ridsafe.gcs.tracking import imm
+from ridsafe.gcs.tracking.imm import Gaussian, ImmModel, ImmState, ModeUpdate
+from ridsafe.gcs.tracking.motion_models import ACC, POS, VEL, MotionModel
 
 FloatArray = NDArray[np.float64]
 
@@ -60,6 +64,7 @@ __all__ = [
     "moment_match_reference",
     "rssi_imm_model",
     "seed_prior",
+    "start",
 ]
 
 PT = 9  # the transmit power's index in a CA-ordered state (then 6 in CV order)
@@ -165,12 +170,12 @@ class GaussianSumLocaliser:
 
     # --- update ---------------------------------------------------------------------------
 
-    def update(self, tx: Transmission) -> bool:
+    def update(self, claim: ObservedClaim) -> bool:
         f = self.cfg.rssi_filter
         meas = RssiMeasurement(
-            tx.rx_p_enu_m, tx.rssi_dbm, self.cfg.rssi_sigma_db, f.rx_position_sigma_m
+            claim.rx_p_enu_m, claim.rssi_dbm, self.cfg.rssi_sigma_db, f.rx_position_sigma_m
         )
-        self.state = imm.predict(self.state, self.model, max(tx.t_s, self.state.t_s))
+        self.state = imm.predict(self.state, self.model, max(claim.t_s, self.state.t_s))
         fused = imm.merge(self.state, self.model)
         mixture = moment_match(self.weights, fused)
         keep = gate_receptions(mixture, 6, meas, f.reception_gate_sigma, _MAX_GATED_FRACTION)
@@ -327,3 +332,19 @@ def _reset_altitude(state: ImmState, z: float, cfg: PipelineConfig) -> ImmState:
             P[:, _AZ, _AZ] = t.init_vertical_accel_std_m_s2**2
         modes.append(Gaussian(x, P))
     return ImmState(tuple(modes), state.mu.copy(), state.t_s)
+
+
+def start(
+    claims: Sequence[ObservedClaim], cfg: PipelineConfig, after_s: float = -math.inf
+) -> tuple[GaussianSumLocaliser, int] | None:
+    """The sum started from the first window of claims (oldest first) whose grid posterior is
+    tight enough (``tracks.max_init_std_m``), and how many of ``claims`` that consumed; None
+    when no window is. Only windows ending after ``after_s`` are tried."""
+    f = cfg.rssi_filter
+    for used in init_windows(claims, cfg.multilateration.min_receivers, after_s):
+        seeds = grid_posterior(used, f.altitude_hypotheses_m, cfg.rssi_sigma_db)
+        limit = cfg.tracks.max_init_std_m
+        if limit > 0 and spread_m(seeds) > limit:
+            continue
+        return GaussianSumLocaliser(cfg, seeds, used[-1].t_s), claims.index(used[-1]) + 1
+    return None

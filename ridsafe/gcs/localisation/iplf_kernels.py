@@ -14,32 +14,27 @@ C = L L^T the points are m +/- 2 L e_c, so Psi = L G with G_c = (dZ_c - dZ_{c+4}
 A^T = L^-T G, A C A^T = G^T G; S^-1 comes from its Cholesky factor by substitution.
 
 The on-disk cache does not notice edits in other modules a kernel calls: after editing,
-delete ``ridsafe/gcs/__pycache__/*.nb[ci]``.
+delete ``ridsafe/gcs/localisation/__pycache__/*.nb[ci]``.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any, TypeVar, cast
+from typing import Any
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from ridsafe.gcs.jit import jit
+
 FloatArray = NDArray[np.float64]
-_F = TypeVar("_F", bound=Callable[..., Any])
 
 __all__ = ["gate", "iplf_final", "iplf_iterate_batch", "linearise_batch"]
 
 _LOG_2PI = math.log(2.0 * math.pi)
 
 
-def _jit(fn: _F) -> _F:
-    return cast(_F, njit(cache=True)(fn))
-
-
-@_jit
+@jit
 def _distances2(p: FloatArray, rx: FloatArray) -> FloatArray:
     k = rx.shape[0]
     out = np.empty(k)
@@ -49,7 +44,7 @@ def _distances2(p: FloatArray, rx: FloatArray) -> FloatArray:
     return out
 
 
-@_jit
+@jit
 def _lower_solve(L: NDArray[np.floating[Any]], B: FloatArray) -> FloatArray:
     """L^-1 B by forward substitution (L lower triangular (k, k), B (k, m))."""
     k, m = B.shape
@@ -64,7 +59,7 @@ def _lower_solve(L: NDArray[np.floating[Any]], B: FloatArray) -> FloatArray:
     return X
 
 
-@_jit
+@jit
 def _upper_solve(L: NDArray[np.floating[Any]], B: FloatArray) -> FloatArray:
     """L^-T B by back substitution (L lower triangular (k, k), B (k, m))."""
     k, m = B.shape
@@ -79,7 +74,7 @@ def _upper_solve(L: NDArray[np.floating[Any]], B: FloatArray) -> FloatArray:
     return X
 
 
-@_jit
+@jit
 def _slr(mean: FloatArray, cov: FloatArray, rx: FloatArray, loss: float) -> tuple[Any, Any, Any]:
     """With C = L L^T and the points m +/- 2 L e_c, Psi = L G where G[c] = (dZ[c] - dZ[c+4]) / 4,
     so A^T = C^-1 Psi = L^-T G and A C A^T = G^T G (no solve with C)."""
@@ -112,7 +107,7 @@ def _slr(mean: FloatArray, cov: FloatArray, rx: FloatArray, loss: float) -> tupl
     return A, b, Omega
 
 
-@_jit
+@jit
 def _update(
     u0: FloatArray,
     Puu: FloatArray,
@@ -132,7 +127,7 @@ def _update(
     return mean, 0.5 * (cov + cov.T)
 
 
-@_jit
+@jit
 def _with_r(
     Omega: FloatArray, mean: FloatArray, rx: FloatArray, s2: float, rx2: float
 ) -> FloatArray:
@@ -143,7 +138,7 @@ def _with_r(
     return Rt
 
 
-@_jit
+@jit
 def iplf_iterate_batch(
     u0: FloatArray,
     Puu: FloatArray,
@@ -177,7 +172,7 @@ def iplf_iterate_batch(
     return mean, cov
 
 
-@_jit
+@jit
 def linearise_batch(
     post_mean: FloatArray,
     post_cov: FloatArray,
@@ -200,7 +195,7 @@ def linearise_batch(
     return A_out, b_out, Rt_out
 
 
-@_jit
+@jit
 def iplf_final(
     x0: FloatArray,
     P0: FloatArray,
@@ -254,7 +249,7 @@ def iplf_final(
     return x_out, P_out, loglik
 
 
-@_jit
+@jit
 def gate(
     x: FloatArray,
     P: FloatArray,

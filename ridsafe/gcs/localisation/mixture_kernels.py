@@ -11,35 +11,28 @@ tests compare each against numpy)::
     pairs:        m2_ab = (p_a - p_b)^T (C_a + C_b)^-1 (p_a - p_b) for a < b, inf elsewhere
                   (and where C_a + C_b is not positive definite: such a pair never merges)
 
-After editing, delete ``ridsafe/gcs/__pycache__/*.nb[ci]`` (numba's cache does not track
-other modules).
+The pair distance is a compiled twin of ``ridsafe.common.ellipsoid.mahalanobis2`` (the one
+reference), tested against it. After editing, delete
+``ridsafe/gcs/localisation/__pycache__/*.nb[ci]`` (numba's cache does not track other modules).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any, TypeVar, cast
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
-from ridsafe.gcs.imm_kernels import mixture_moments
+from ridsafe.common.pathloss import DB_PER_LN
+from ridsafe.gcs.jit import jit
+from ridsafe.gcs.tracking.imm_kernels import mixture_moments
 
 FloatArray = NDArray[np.float64]
-_F = TypeVar("_F", bound=Callable[..., Any])
 
 __all__ = ["mixture_moments", "pair_mahalanobis2", "split_curvature"]
 
-DB_PER_LN = 20.0 / math.log(10.0)
 
-
-def _jit(fn: _F) -> _F:
-    return cast(_F, njit(cache=True)(fn))
-
-
-@_jit
+@jit
 def split_curvature(x: FloatArray, P: FloatArray, rx: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Each hypothesis' curvature of the RSSI over its position spread (dB) and the principal
     axis of its position covariance: (H,), (H, 3); ``x`` (H, n), ``P`` (H, n, n) with the
@@ -58,7 +51,7 @@ def split_curvature(x: FloatArray, P: FloatArray, rx: FloatArray) -> tuple[Float
     return curvature, axis
 
 
-@_jit
+@jit
 def _mahalanobis2_3(d: FloatArray, S: FloatArray) -> float:
     """d^T S^-1 d for a 3 x 3 ``S`` by its Cholesky factor; inf if S is not positive
     definite."""
@@ -85,7 +78,7 @@ def _mahalanobis2_3(d: FloatArray, S: FloatArray) -> float:
     return out
 
 
-@_jit
+@jit
 def pair_mahalanobis2(p: FloatArray, C: FloatArray) -> FloatArray:
     """m2[a, b] between the positions ``p`` (H, 3) with covariances ``C`` (H, 3, 3) for
     a < b; inf on and below the diagonal (and where C_a + C_b is not positive definite)."""

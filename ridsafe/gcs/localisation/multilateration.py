@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
-from ridsafe.common.pathloss import LOSS_AT_1M_2400MHZ_DB, MIN_DISTANCE_M
+from ridsafe.common.pathloss import DB_PER_LN, LOSS_AT_1M_2400MHZ_DB, MIN_DISTANCE_M
 from ridsafe.gcs.pipeline_config import MultilaterationConfig
 
 FloatArray = NDArray[np.float64]
@@ -51,7 +51,6 @@ __all__ = [
     "solve_position_only",
 ]
 
-DB_PER_LN = 20.0 / math.log(10.0)  # 8.686 dB per neper of range
 _MIN_D2 = MIN_DISTANCE_M**2
 
 

@@ -1,64 +1,50 @@
-r"""How a track turns transmissions into an IMM estimate: the paper's pipeline, and ours.
+r"""The paper's estimator (sec. 4.2; ``pipeline.estimator: nlls_imm``): NLLS fix -> IMM.
 
-``NllsImmLocaliser`` (the paper's pipeline, sec. 4.2; ``Estimator.NLLS_IMM``): per
-transmission heard by >= 4 receivers, a multilateration fix (``multilateration.py``: joint
-(x, y, z, Pt), or position-only at the tracked power once that is known to
+Per observed claim heard by >= 4 receivers, a multilateration fix (``multilateration.py``:
+joint (x, y, z, Pt), or position-only at the tracked power once that is known to
 ``position_only_below_power_std_db``), then a linear IMM update with z = p_fix, H = [I3 0],
 R = the fix's Jacobian covariance (``imm.measurement_covariance = 'fix'``) or the paper's
 400 I / 50 I (``'paper'``), gated at chi2_3 99 % like the authors' code. Modes CV (6 states)
 and CA (9) with the paper's Q (appendix table) over the real interval. The tracked power is a
-scalar Kalman filter fed by the joint fixes' Pt and its variance. It starts at the first
-transmission giving a joint fix (tried from the receivers' centroid and from the claimed
+scalar Kalman filter fed by the joint fixes' Pt and its variance. ``start`` starts it at the
+first claim giving a joint fix (tried from the receivers' centroid and from the claimed
 position; the lower residual wins), with the fix's position covariance.
-
-``GaussianSumLocaliser`` (ours, ``Estimator.RSSI_IMM``, the default; ``gaussian_sum.py``):
-IMMs updated on the raw RSSI, started from the grid posterior of ``initiation.py``.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
-from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ridsafe.common.pathloss import LOSS_AT_1M_2400MHZ_DB
-from ridsafe.gcs import imm
-from ridsafe.gcs.gaussian_sum import GaussianSumLocaliser
-from ridsafe.gcs.imm import Gaussian, ImmModel, ImmState, ModeUpdate
-from ridsafe.gcs.initiation import grid_posterior, init_windows, spread_m
-from ridsafe.gcs.motion_models import ACC, POS, VEL, MotionModel
-from ridsafe.gcs.multilateration import Fix, centroid_start, solve_joint, solve_position_only
-from ridsafe.gcs.pipeline_api import Transmission
-from ridsafe.gcs.pipeline_config import Estimator, PipelineConfig
+from ridsafe.gcs.localisation.multilateration import (
+    Fix,
+    centroid_start,
+    solve_joint,
+    solve_position_only,
+)
+from ridsafe.gcs.pipeline_api import ObservedClaim
+from ridsafe.gcs.pipeline_config import PipelineConfig
+from ridsafe.gcs.tracking import imm
+from ridsafe.gcs.tracking.imm import Gaussian, ImmModel, ImmState, ModeUpdate
+from ridsafe.gcs.tracking.motion_models import ACC, POS, VEL, MotionModel
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["Localiser", "NllsImmLocaliser", "best_joint_fix", "start_localiser"]
+__all__ = ["NllsImmLocaliser", "best_joint_fix", "start"]
 
 _H_POS = np.hstack((np.eye(3), np.zeros((3, 6))))
 
 
-class Localiser(Protocol):
-    """What a track needs from an estimator."""
-
-    def update(self, tx: Transmission) -> bool:
-        """Use one transmission (True when it updated the estimate)."""
-        ...
-
-    def predicted(self, t_s: float) -> tuple[Gaussian, FloatArray]:
-        """(fused estimate, a batch of 1 in CV order: p, v[, extras]; mode probabilities
-        (2,)) at ``t_s``, without advancing the stored state."""
-        ...
-
-
-def best_joint_fix(tx: Transmission, cfg: PipelineConfig) -> Fix:
+def best_joint_fix(claim: ObservedClaim, cfg: PipelineConfig) -> Fix:
     """A joint fix from the receivers' centroid and from the claimed position; the better."""
     m = cfg.multilateration
-    rx, z = tx.rx_p_enu_m, tx.rssi_dbm
+    rx, z = claim.rx_p_enu_m, claim.rssi_dbm
     start_c = centroid_start(rx, z, LOSS_AT_1M_2400MHZ_DB)
-    start_claim = np.r_[tx.claimed_p_enu_m, start_c[3]]
+    start_claim = np.r_[claim.claimed_p_enu_m, start_c[3]]
     fixes = [solve_joint(rx, z, s, cfg.rssi_sigma_db, m) for s in (start_c, start_claim)]
     ok = [f for f in fixes if f.ok]
     return min(ok, key=lambda f: f.rms_residual_db) if ok else fixes[0]
@@ -108,12 +94,12 @@ class NllsImmLocaliser:
         q = self.cfg.multilateration.tx_power_q_db2_s
         return self.power[0], self.power[1] + q * max(t_s - self.power_t_s, 0.0)
 
-    def _fix(self, tx: Transmission, prior: ImmState) -> Fix:
+    def _fix(self, claim: ObservedClaim, prior: ImmState) -> Fix:
         m = self.cfg.multilateration
         p0 = imm.merge(prior, self.model).x[0, POS]
-        pt, pt_var = self._tracked_power(tx.t_s)
+        pt, pt_var = self._tracked_power(claim.t_s)
         sigma = self.cfg.rssi_sigma_db
-        rx, z = tx.rx_p_enu_m, tx.rssi_dbm
+        rx, z = claim.rx_p_enu_m, claim.rssi_dbm
         limit = m.position_only_below_power_std_db
         if limit > 0 and pt_var <= limit**2:
             fix = solve_position_only(rx, z, p0, pt, pt_var, sigma, m)
@@ -121,9 +107,9 @@ class NllsImmLocaliser:
                 return fix
         fix = solve_joint(rx, z, np.r_[p0, pt], sigma, m)
         if not fix.ok:
-            fix = best_joint_fix(tx, self.cfg)
+            fix = best_joint_fix(claim, self.cfg)
         if fix.ok:
-            self._absorb_power(fix, tx.t_s)
+            self._absorb_power(fix, claim.t_s)
         return fix
 
     def _absorb_power(self, fix: Fix, t_s: float) -> None:
@@ -138,10 +124,10 @@ class NllsImmLocaliser:
             return np.diag(c.r_cv_diag if mode == 0 else c.r_ca_diag)
         return fix.cov_enu_m2
 
-    def update(self, tx: Transmission) -> bool:
-        prior = imm.predict(self.state, self.model, max(tx.t_s, self.state.t_s))
+    def update(self, claim: ObservedClaim) -> bool:
+        prior = imm.predict(self.state, self.model, max(claim.t_s, self.state.t_s))
         self.state = prior
-        fix = self._fix(tx, prior)
+        fix = self._fix(claim, prior)
         self.last_fix = fix
         if not fix.ok:
             return False
@@ -167,25 +153,15 @@ class NllsImmLocaliser:
         return float(nu @ np.linalg.solve(S, nu)) > self.cfg.imm.gate_chi2
 
 
-def start_localiser(
-    txs: Sequence[Transmission], cfg: PipelineConfig, after_s: float = -np.inf
-) -> tuple[Localiser, int] | None:
-    """A localiser started from ``txs`` (oldest first), and how many of them it consumed;
-    None when none of them can start one. ``after_s``: transmissions up to this time were
-    already tried (RSSI_IMM: only groups ending later are tried again)."""
-    if cfg.estimator is Estimator.RSSI_IMM:
-        f = cfg.rssi_filter
-        for used in init_windows(txs, cfg.multilateration.min_receivers, after_s):
-            seeds = grid_posterior(used, f.altitude_hypotheses_m, cfg.rssi_sigma_db)
-            limit = cfg.tracks.max_init_std_m
-            if limit > 0 and spread_m(seeds) > limit:
-                continue
-            return GaussianSumLocaliser(cfg, seeds, used[-1].t_s), txs.index(used[-1]) + 1
-        return None
-    for i, tx in enumerate(txs):
-        if tx.t_s <= after_s or tx.n_receivers < cfg.multilateration.min_receivers:
+def start(
+    claims: Sequence[ObservedClaim], cfg: PipelineConfig, after_s: float = -math.inf
+) -> tuple[NllsImmLocaliser, int] | None:
+    """The localiser started at the first claim after ``after_s`` with a joint fix, and how
+    many of ``claims`` (oldest first) that consumed; None when no claim gives one."""
+    for i, claim in enumerate(claims):
+        if claim.t_s <= after_s or claim.n_receivers < cfg.multilateration.min_receivers:
             continue
-        fix = best_joint_fix(tx, cfg)
+        fix = best_joint_fix(claim, cfg)
         if fix.ok:
-            return NllsImmLocaliser(cfg, fix, tx.t_s), i + 1
+            return NllsImmLocaliser(cfg, fix, claim.t_s), i + 1
     return None

@@ -41,10 +41,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ridsafe.common.pathloss import LOSS_AT_1M_2400MHZ_DB
-from ridsafe.gcs import iplf_kernels
-from ridsafe.gcs.imm import Gaussian, ModeUpdate, symmetrize
-from ridsafe.gcs.multilateration import DB_PER_LN
+from ridsafe.common.pathloss import DB_PER_LN, LOSS_AT_1M_2400MHZ_DB
+from ridsafe.gcs.localisation import iplf_kernels
+from ridsafe.gcs.tracking.imm import Gaussian, ModeUpdate, symmetrize
 
 FloatArray = NDArray[np.float64]
 

@@ -6,7 +6,9 @@ unsafe region is the ellipsoid (paper eq. (10), its complement being the safe se
     (x - x^)^T P^-1 (x - x^) <= F^-1_{chi2_3}(1 - alpha)          (= 7.815 at alpha = 0.05)
 
 If x ~ N(x^, P), the left side is chi2_3, so the region holds the spoofer with probability
-1 - alpha (paper eq. (11)) - the containment a consistent estimator must show.
+1 - alpha (paper eq. (11)) - the containment a consistent estimator must show. Whether a
+point is inside is ``ridsafe.common.ellipsoid.inside`` (one reference for the GCS, the
+companions and the metrics).
 
 Geometry, for logging and Foxglove: with P = V diag(lambda) V^T (lambda descending, V a
 rotation, det V = +1), the semi-axes are sqrt(threshold * lambda_k) along the columns of V.
@@ -28,9 +30,7 @@ FloatArray = NDArray[np.float64]
 
 __all__ = [
     "chi2_threshold",
-    "contains",
     "ellipsoid_axes",
-    "mahalanobis2",
     "make_region",
     "positive_definite",
 ]
@@ -86,17 +86,6 @@ def _det3(M: FloatArray) -> float:
     """det of a 3 x 3 matrix by cofactors (here +-1: only its sign matters)."""
     (a, b, c), (d, e, f), (g, h, i) = M.tolist()
     return float(a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g))
-
-
-def mahalanobis2(point: FloatArray, center: FloatArray, cov: FloatArray) -> float:
-    """(x - c)^T P^-1 (x - c)."""
-    d = np.asarray(point, dtype=np.float64) - center
-    return float(d @ np.linalg.solve(cov, d))
-
-
-def contains(region: UnsafeRegion, point: FloatArray) -> bool:
-    """Is ``point`` inside the region's ellipsoid?"""
-    return mahalanobis2(point, region.center_enu_m, region.cov_enu_m2) <= region.chi2_threshold
 
 
 def make_region(

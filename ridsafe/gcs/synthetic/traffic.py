@@ -1,9 +1,10 @@
-"""Seeded synthetic Remote ID traffic for the GCS estimation pipeline, matching the sim's radio.
+"""Seeded synthetic observed claims for the GCS estimation pipeline, heard as the sim hears.
 
 Scene: ``n_receivers`` benign aircraft over 1 km x 1 km and one spoofer on a straight line
 (~7 m/s, ~60 m) broadcasting its true position plus a constant offset. Every aircraft
-broadcasts at 1 Hz with its own random phase; every other aircraft hears it with the sim
-radio's model (``ridsafe/sim_backend/radio.py``)::
+broadcasts at 1 Hz with its own random phase; every other aircraft hears it through the
+path-loss model the sim radio uses (``ridsafe.common.pathloss.received_power_dbm``, at
+2400 MHz) plus shadowing::
 
     RSSI = Pt - 20 log10(max(d_m, 1)) - 40.0442 + N(0, sigma^2),   heard if >= sensitivity
 
@@ -14,26 +15,22 @@ A transmission closes at the first GCS cycle at least ``close_lag_s`` after it (
 shell's grouping window is 0.3 s). Optional imperfections: reported receiver positions with
 noise, claimed altitudes truncated to the F3411 0.5 m step.
 
-``run_pipeline`` drives an ``EstimationPipeline`` over a scene and measures what the issue
-asks: detection delay, false alerts on benign aircraft, containment and RMSE after the alert,
-compute per cycle.
+``evaluate.run_pipeline`` drives an ``EstimationPipeline`` over the traffic and measures it.
+Used by the GCS tests and by ``bench/bench_gcs.py``; the draws come from one generator per
+scene seed, so a scene is the same traffic on every machine.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ridsafe.common.messages import AlertState, RidsafeDetector
-from ridsafe.common.pathloss import LOSS_AT_1M_2400MHZ_DB
-from ridsafe.gcs.pipeline import EstimationPipeline
-from ridsafe.gcs.pipeline_api import CycleOutput, DetectorResult, Transmission, readonly
-from ridsafe.gcs.pipeline_config import PipelineConfig
+from ridsafe.common.pathloss import received_power_dbm
+from ridsafe.gcs.pipeline_api import ObservedClaim, readonly
 
 FloatArray = NDArray[np.float64]
 
@@ -48,6 +45,8 @@ def benign_id(i: int) -> str:
 
 @dataclass(frozen=True)
 class Scene:
+    """What to generate (module docstring): distances in m, powers in dBm, times in s."""
+
     seed: int = 0
     n_receivers: int = 8
     duration_s: float = 120.0
@@ -129,7 +128,7 @@ class Traffic:
     scene: Scene
     paths: tuple[Path, ...]  # benign 0..n-1, then the spoofer
     ids: tuple[str, ...]
-    cycles: dict[float, list[Transmission]] = field(default_factory=dict)
+    cycles: dict[float, list[ObservedClaim]] = field(default_factory=dict)
 
     @property
     def spoofer_path(self) -> Path:
@@ -137,7 +136,7 @@ class Traffic:
 
 
 def make_traffic(scene: Scene) -> Traffic:
-    """Every transmission of the scene, grouped by the GCS cycle that delivers it."""
+    """Every observed claim of the scene, grouped by the GCS cycle that delivers it."""
     rng = np.random.default_rng(scene.seed)
     path_rng, radio_rng = rng.spawn(2)
     make = _waypoint_path if scene.start == "airborne" else _depot_path
@@ -158,22 +157,22 @@ def make_traffic(scene: Scene) -> Traffic:
     )
     traffic = Traffic(scene, tuple(paths), tuple(ids))
     for t, sender in events:
-        tx = _transmission(traffic, t, sender, powers[sender], radio_rng)
-        if tx is None:
+        claim = _observed_claim(traffic, t, sender, powers[sender], radio_rng)
+        if claim is None:
             continue
         cycle = math.ceil((t + scene.close_lag_s) / CYCLE_S - 1e-9) * CYCLE_S
-        traffic.cycles.setdefault(round(cycle, 6), []).append(tx)
+        traffic.cycles.setdefault(round(cycle, 6), []).append(claim)
     return traffic
 
 
-def _transmission(
+def _observed_claim(
     traffic: Traffic, t: float, sender: int, pt: float, rng: np.random.Generator
-) -> Transmission | None:
+) -> ObservedClaim | None:
     scene = traffic.scene
     n = len(traffic.paths)
     p = np.vstack([path.at(t) for path in traffic.paths])
     d = np.linalg.norm(p - p[sender], axis=1)
-    rssi = pt - 20.0 * np.log10(np.maximum(d, 1.0)) - LOSS_AT_1M_2400MHZ_DB
+    rssi = received_power_dbm(pt, d)
     rssi = rssi + rng.normal(0.0, scene.sigma_db, n)
     heard = rssi >= scene.sensitivity_dbm
     heard[sender] = False
@@ -186,7 +185,7 @@ def _transmission(
     if scene.quantise_claimed_alt:
         claimed[2] = math.floor(claimed[2] / 0.5) * 0.5
     idx = np.flatnonzero(heard)
-    return Transmission(
+    return ObservedClaim(
         uas_id=traffic.ids[sender],
         rid_timestamp_s=t,
         claimed_p_enu_m=readonly(claimed),
@@ -196,89 +195,3 @@ def _transmission(
         rx_t_s=readonly(np.full(idx.shape[0], t)),
         rssi_dbm=readonly(rssi[idx]),
     )
-
-
-@dataclass
-class RunMetrics:
-    """What one run measured (times in s, distances in m)."""
-
-    first_heard_by_4_s: float = math.nan
-    alert_s: float = math.nan
-    alert_detector: RidsafeDetector | None = None
-    first_region_s: float = math.nan
-    false_alerts: int = 0
-    containment: list[bool] = field(default_factory=list)
-    errors_m: list[float] = field(default_factory=list)
-    errors_h_m: list[float] = field(default_factory=list)
-    nees: list[float] = field(default_factory=list)
-    compute_s: list[float] = field(default_factory=list)
-    results: list[tuple[bool, DetectorResult]] = field(default_factory=list)
-
-    @property
-    def delay_s(self) -> float:
-        return self.alert_s - self.first_heard_by_4_s
-
-    @property
-    def containment_rate(self) -> float:
-        return float(np.mean(self.containment)) if self.containment else math.nan
-
-    @property
-    def rmse_m(self) -> float:
-        return float(np.sqrt(np.mean(np.square(self.errors_m)))) if self.errors_m else math.nan
-
-    @property
-    def rmse_h_m(self) -> float:
-        e = self.errors_h_m
-        return float(np.sqrt(np.mean(np.square(e)))) if e else math.nan
-
-
-def run_pipeline(
-    traffic: Traffic,
-    config: PipelineConfig,
-    keep_results: bool = False,
-    on_cycle: Callable[[float, CycleOutput], None] | None = None,
-) -> RunMetrics:
-    """Drive a fresh pipeline over ``traffic`` cycle by cycle and measure it."""
-    pipeline = EstimationPipeline(config)
-    metrics = RunMetrics()
-    n_cycles = round(traffic.scene.duration_s / CYCLE_S)
-    for k in range(1, n_cycles + 1):
-        now = round(k * CYCLE_S, 6)
-        txs = traffic.cycles.get(now, [])
-        for tx in txs:
-            if (
-                tx.uas_id == SPOOFER_ID
-                and tx.n_receivers >= 4
-                and math.isnan(metrics.first_heard_by_4_s)
-            ):
-                metrics.first_heard_by_4_s = tx.t_s
-        out = pipeline.step(now, txs)
-        metrics.compute_s.append(pipeline.compute_s[-1])
-        _score(traffic, now, out, metrics, keep_results)
-        if on_cycle is not None:
-            on_cycle(now, out)
-    return metrics
-
-
-def _score(traffic: Traffic, now: float, out: CycleOutput, metrics: RunMetrics, keep: bool) -> None:
-    for change in out.alert_changes:
-        if change.state is not AlertState.RAISED:
-            continue
-        if change.uas_id == SPOOFER_ID and math.isnan(metrics.alert_s):
-            metrics.alert_s, metrics.alert_detector = now, change.detector
-        elif change.uas_id != SPOOFER_ID:
-            metrics.false_alerts += 1
-    if keep:
-        metrics.results.extend((r.uas_id == SPOOFER_ID, r) for r in out.detector_results)
-    truth = traffic.spoofer_path.at(now)[0] if traffic.scene.with_spoofer else None
-    for region in out.regions:
-        if region.uas_id != SPOOFER_ID or truth is None:
-            continue
-        if math.isnan(metrics.first_region_s):
-            metrics.first_region_s = now
-        d = truth - region.center_enu_m
-        m2 = float(d @ np.linalg.solve(region.cov_enu_m2, d))
-        metrics.containment.append(m2 <= region.chi2_threshold)
-        metrics.nees.append(m2)
-        metrics.errors_m.append(float(np.linalg.norm(d)))
-        metrics.errors_h_m.append(float(np.linalg.norm(d[:2])))

@@ -38,8 +38,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from ridsafe.gcs import imm_kernels
-from ridsafe.gcs.motion_models import ACC, MotionModel, conversion_rows, convert
+from ridsafe.gcs.tracking import imm_kernels
+from ridsafe.gcs.tracking.motion_models import ACC, MotionModel, conversion_rows, convert
 
 FloatArray = NDArray[np.float64]
 IndexArray = NDArray[np.int64]

@@ -14,22 +14,21 @@ A conversion T (``motion_models.convert``) is given as an index map ``src``: row
 target state is row ``src[r]`` of the source state, or a lifted acceleration (``src[r] < 0``)
 with zero mean, variance ``lift_var[r]`` and no correlation. Modes are passed as tuples of
 arrays (one per mode; the sizes differ). After editing, delete
-``ridsafe/gcs/__pycache__/*.nb[ci]`` (numba's cache does not track other modules).
+``ridsafe/gcs/tracking/__pycache__/*.nb[ci]`` (numba's cache does not track other modules).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any, TypeVar, cast
+from typing import Any
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
+
+from ridsafe.gcs.jit import jit
 
 FloatArray = NDArray[np.float64]
 IndexArray = NDArray[np.int64]
-_F = TypeVar("_F", bound=Callable[..., Any])
 
 __all__ = [
     "accumulate",
@@ -40,11 +39,7 @@ __all__ = [
 ]
 
 
-def _jit(fn: _F) -> _F:
-    return cast(_F, njit(cache=True)(fn))
-
-
-@_jit
+@jit
 def _convert(
     x: FloatArray,
     P: FloatArray,
@@ -70,7 +65,7 @@ def _convert(
             Pc[r, c] = P[h, a, b] if b >= 0 else 0.0
 
 
-@_jit
+@jit
 def accumulate(
     weight: float, xc: FloatArray, Pc: FloatArray, mean: FloatArray, P: FloatArray
 ) -> None:
@@ -82,7 +77,7 @@ def accumulate(
             P[r, c] += weight * (Pc[r, c] + dr * (xc[c] - mean[c]))
 
 
-@_jit
+@jit
 def mixture_moments(
     weights: FloatArray, x: FloatArray, P: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
@@ -99,7 +94,7 @@ def mixture_moments(
     return mean, 0.5 * (cov + cov.T)
 
 
-@_jit
+@jit
 def _mixed_start(
     xs: Any,
     Ps: Any,
@@ -119,7 +114,7 @@ def _mixed_start(
     return mixture_moments(weights, convs_x, convs_P)
 
 
-@_jit
+@jit
 def predict_batch(
     xs: Any,
     Ps: Any,
@@ -159,7 +154,7 @@ def predict_batch(
             mu_out[h, j] = c[j] / total
 
 
-@_jit
+@jit
 def merge_batch(
     xs: Any,
     Ps: Any,
@@ -179,7 +174,7 @@ def merge_batch(
         P_out[h] = P
 
 
-@_jit
+@jit
 def mode_probabilities(mu: FloatArray, log_lik: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Step 6 in logs for every batch item: mu_j <- c_j Lambda_j / sum_l c_l Lambda_l, and
     log sum_j c_j Lambda_j; ``mu`` (H, M) the predicted probabilities, ``log_lik`` (H, M)."""

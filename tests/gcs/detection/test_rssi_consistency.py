@@ -12,9 +12,10 @@ import pytest
 from scipy import stats
 
 from ridsafe.common.messages import RidsafeDetector
-from ridsafe.gcs.detection import (
+from ridsafe.common.pathloss import received_power_dbm
+from ridsafe.gcs.detection.rssi_consistency import (
     PairNis,
-    TransmitterMonitor,
+    RssiConsistencyDetectors,
     implied_powers,
     offset_score_test,
     probit,
@@ -22,12 +23,12 @@ from ridsafe.gcs.detection import (
     sufficient_statistics,
     surprisal,
 )
-from ridsafe.gcs.pipeline_api import Transmission, readonly
+from ridsafe.gcs.pipeline_api import ObservedClaim, readonly
 from ridsafe.gcs.pipeline_config import DetectionConfig, PipelineConfig
-from tests.gcs.synthetic import SPOOFER_ID, Scene, make_traffic, run_pipeline
+from ridsafe.gcs.synthetic.evaluate import run_pipeline
+from ridsafe.gcs.synthetic.traffic import SPOOFER_ID, Scene, make_traffic
 
 PAPER = DetectionConfig(position_sigma_m=0.0)
-LOSS = 40.0442  # the radio's exact constant
 
 
 def _rx(rng: np.random.Generator, k: int) -> np.ndarray:
@@ -38,15 +39,15 @@ def _honest_rssi(
     rng: np.random.Generator, p: np.ndarray, rx: np.ndarray, sigma: float
 ) -> np.ndarray:
     d = np.linalg.norm(rx - p, axis=1)
-    out: np.ndarray = 20.0 - 20.0 * np.log10(d) - LOSS + rng.normal(0, sigma, rx.shape[0])
+    out: np.ndarray = received_power_dbm(20.0, d) + rng.normal(0, sigma, rx.shape[0])
     return out
 
 
-def _tx(
+def _claim(
     t: float, claimed: np.ndarray, rx: np.ndarray, rssi: np.ndarray, uas: str = "X"
-) -> Transmission:
+) -> ObservedClaim:
     k = rx.shape[0]
-    return Transmission(
+    return ObservedClaim(
         uas,
         t,
         readonly(claimed),
@@ -150,7 +151,7 @@ def test_pair_nis_is_the_papers_scalar_filter() -> None:
 def test_kernel_matches_the_numpy_reference() -> None:
     rng = np.random.default_rng(9)
     cfg = DetectionConfig(window_s=4.5)
-    monitor = TransmitterMonitor("X", cfg, 1.0)
+    monitor = RssiConsistencyDetectors("X", cfg, 1.0)
     reference = PairNis(cfg)
     true = np.array([10.0, 20.0, 60.0])
     rows: list[tuple[float, np.ndarray]] = []
@@ -158,7 +159,7 @@ def test_kernel_matches_the_numpy_reference() -> None:
         rx = _rx(rng, 7)
         rssi = _honest_rssi(rng, true + np.array([0.0, 7.0 * t, 0.0]), rx, 1.0)
         claimed = true + np.array([40.0, 7.0 * t + 40.0, 0.0])
-        results = {r.detector: r for r in monitor.observe(_tx(float(t), claimed, rx, rssi))}
+        results = {r.detector: r for r in monitor.observe(_claim(float(t), claimed, rx, rssi))}
         ip = implied_powers(claimed, rx, rssi, 1.0, cfg)
         y_ref = monitor._y_ref
         assert y_ref is not None
@@ -179,9 +180,9 @@ def test_kernel_matches_the_numpy_reference() -> None:
 
 
 def test_few_receivers_are_not_tested() -> None:
-    monitor = TransmitterMonitor("X", DetectionConfig(min_receivers=3), 1.0)
+    monitor = RssiConsistencyDetectors("X", DetectionConfig(min_receivers=3), 1.0)
     rx = np.array([[0.0, 0, 50], [100.0, 0, 50]])
-    assert monitor.observe(_tx(0.0, np.zeros(3), rx, np.array([-60.0, -70.0]))) == ()
+    assert monitor.observe(_claim(0.0, np.zeros(3), rx, np.array([-60.0, -70.0]))) == ()
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

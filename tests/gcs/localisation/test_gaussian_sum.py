@@ -1,33 +1,34 @@
-"""The Gaussian sum of RSSI IMMs and the grid posterior that starts it."""
+"""The Gaussian sum of RSSI IMMs (started from the grid posterior), and its compiled
+bookkeeping against numpy and the containment reference."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from ridsafe.gcs import imm, mixture_kernels
-from ridsafe.gcs.gaussian_sum import (
+from ridsafe.common.ellipsoid import mahalanobis2
+from ridsafe.common.pathloss import DB_PER_LN, received_power_dbm
+from ridsafe.gcs.initiation.grid import GridSeed, grid_posterior
+from ridsafe.gcs.localisation import mixture_kernels
+from ridsafe.gcs.localisation.gaussian_sum import (
     GaussianSumLocaliser,
     _split_along,
     moment_match,
     moment_match_reference,
 )
-from ridsafe.gcs.imm import Gaussian, ImmState
-from ridsafe.gcs.initiation import GridSeed, grid_posterior, init_windows, spread_m
-from ridsafe.gcs.multilateration import DB_PER_LN
-from ridsafe.gcs.pipeline_api import Transmission, readonly
+from ridsafe.gcs.pipeline_api import ObservedClaim, readonly
 from ridsafe.gcs.pipeline_config import PipelineConfig
+from ridsafe.gcs.tracking import imm
+from ridsafe.gcs.tracking.imm import Gaussian, ImmState
 
-LOSS = 40.0442
 
-
-def _tx(
+def _claim(
     t: float, p: np.ndarray, rx: np.ndarray, rng: np.random.Generator, sigma: float = 1.0
-) -> Transmission:
+) -> ObservedClaim:
     d = np.linalg.norm(rx - p, axis=1)
-    rssi = 20.0 - 20.0 * np.log10(d) - LOSS + rng.normal(0, sigma, rx.shape[0])
+    rssi = received_power_dbm(20.0, d) + rng.normal(0, sigma, rx.shape[0])
     k = rx.shape[0]
-    return Transmission(
+    return ObservedClaim(
         "S",
         t,
         readonly(p),
@@ -59,38 +60,6 @@ def test_huber_split_preserves_the_first_two_moments() -> None:
     )
 
 
-def test_grid_posterior_finds_the_transmitter() -> None:
-    rng = np.random.default_rng(1)
-    rx = np.column_stack((rng.uniform(-500, 500, (12, 2)), rng.uniform(30, 100, 12)))
-    p = np.array([120.0, -200.0, 60.0])
-    txs = [_tx(t, p, rx, rng, 0.5) for t in (0.0, 1.0, 2.0)]
-    seeds = grid_posterior(txs, (20.0, 60.0, 100.0), 1.0)
-    assert sum(s.weight for s in seeds) == pytest.approx(1.0)
-    best = max(seeds, key=lambda s: s.weight)
-    assert np.linalg.norm(best.p_xy_m - p[:2]) < 40.0
-    assert best.tx_power_dbm == pytest.approx(20.0, abs=1.5)
-    assert spread_m(seeds) < 60.0
-
-
-def test_clustered_receivers_leave_a_wide_grid_posterior() -> None:
-    rng = np.random.default_rng(2)
-    sites = np.array([[-350.0, -350.0, 0.0], [350.0, -350.0, 0.0], [0.0, 380.0, 0.0]])
-    rx = np.repeat(sites, 3, axis=0) + np.r_[rng.uniform(-3, 3, (9, 2)).T, [np.zeros(9)]].T
-    txs = [_tx(t, np.array([-450.0, 120.0, 60.0]), rx, rng) for t in (0.0, 1.0)]
-    seeds = grid_posterior(txs, (20.0, 60.0, 100.0), 1.0)
-    assert spread_m(seeds) > 150.0  # several modes along a ridge, none dominant
-    assert len(seeds) > 2 and max(s.weight for s in seeds) < 0.5
-
-
-def test_init_windows_span_and_skip_what_was_tried() -> None:
-    rng = np.random.default_rng(3)
-    rx = rng.uniform(-500, 500, (6, 3))
-    txs = [_tx(t, np.zeros(3), rx, rng) for t in (0.0, 1.0, 2.0, 3.0, 4.0)]
-    windows = init_windows(txs, 4)
-    assert [len(w) for w in windows] == [1, 2, 3, 3, 3]
-    assert [w[-1].t_s for w in init_windows(txs, 4, after_s=2.5)] == [3.0, 4.0]
-
-
 def _localiser(seeds: list[GridSeed]) -> GaussianSumLocaliser:
     return GaussianSumLocaliser(PipelineConfig(), seeds, 0.0)
 
@@ -114,11 +83,11 @@ def test_the_sum_tracks_a_transmitter_and_reports_the_mixture() -> None:
     rng = np.random.default_rng(4)
     rx = np.column_stack((rng.uniform(-500, 500, (12, 2)), rng.uniform(30, 100, 12)))
     p0, v = np.array([-300.0, 0.0, 60.0]), np.array([7.0, 0.0, 0.0])
-    txs = [_tx(float(t), p0 + v * t, rx, rng) for t in range(40)]
-    loc = _localiser(grid_posterior(txs[:3], (20.0, 60.0, 100.0), 1.0))
+    claims = [_claim(float(t), p0 + v * t, rx, rng) for t in range(40)]
+    loc = _localiser(grid_posterior(claims[:3], (20.0, 60.0, 100.0), 1.0))
     loc.state = ImmState(loc.state.modes, loc.state.mu, 2.0)
-    for tx in txs[3:]:
-        assert loc.update(tx)
+    for claim in claims[3:]:
+        assert loc.update(claim)
         assert loc.size <= PipelineConfig().rssi_filter.max_hypotheses
     fused, mu = loc.predicted(39.0)
     e = p0 + v * 39.0 - fused.x[0, :3]
@@ -155,5 +124,5 @@ def test_mixture_kernels_match_numpy() -> None:
                 continue
             d = g.x[a, :3] - g.x[b, :3]
             assert m2[a, b] == pytest.approx(
-                d @ np.linalg.solve(g.P[a, :3, :3] + g.P[b, :3, :3], d)
+                float(mahalanobis2(d, g.P[a, :3, :3] + g.P[b, :3, :3]))
             )

@@ -12,7 +12,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy import stats
 
-from ridsafe.gcs.multilateration import (
+from ridsafe.gcs.localisation.multilateration import (
     FixStatus,
     predicted_rssi,
     rssi_jacobian,

@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ridsafe.gcs.imm import Gaussian
-from ridsafe.gcs.multilateration import rssi_jacobian
-from ridsafe.gcs.rssi_update import (
+from ridsafe.common.pathloss import received_power_dbm
+from ridsafe.gcs.localisation.multilateration import rssi_jacobian
+from ridsafe.gcs.localisation.rssi_update import (
     RssiMeasurement,
     _slr,
     gate_receptions,
@@ -18,15 +18,14 @@ from ridsafe.gcs.rssi_update import (
     iplf_update_reference,
     linearise,
 )
-
-LOSS = 40.0442
+from ridsafe.gcs.tracking.imm import Gaussian
 
 
 def _meas(
     rng: np.random.Generator, p: np.ndarray, rx: np.ndarray, sigma: float = 1.0
 ) -> RssiMeasurement:
     d = np.linalg.norm(rx - p, axis=1)
-    rssi = 20.0 - 20.0 * np.log10(d) - LOSS + rng.normal(0, sigma, rx.shape[0])
+    rssi = received_power_dbm(20.0, d) + rng.normal(0, sigma, rx.shape[0])
     return RssiMeasurement(rx, rssi, 1.0, 1.0)
 
 

@@ -11,9 +11,9 @@ import pytest
 from filterpy.kalman import IMMEstimator, KalmanFilter
 from scipy import stats
 
-from ridsafe.gcs import imm
-from ridsafe.gcs.imm import Gaussian, ImmModel, ImmState, ModeUpdate
-from ridsafe.gcs.motion_models import MotionModel, convert, transition_matrix
+from ridsafe.gcs.tracking import imm
+from ridsafe.gcs.tracking.imm import Gaussian, ImmModel, ImmState, ModeUpdate
+from ridsafe.gcs.tracking.motion_models import MotionModel, convert, transition_matrix
 
 ASYMMETRIC = np.array([[0.9, 0.1], [0.3, 0.7]])
 H_POS9 = np.hstack((np.eye(3), np.zeros((3, 6))))

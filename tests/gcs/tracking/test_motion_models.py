@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ridsafe.gcs.motion_models import (
+from ridsafe.gcs.tracking.motion_models import (
     CA_DIM,
     CV_DIM,
     MotionModel,
