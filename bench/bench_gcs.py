@@ -2,7 +2,7 @@
 Monte-Carlo sweep behind the estimator choice.
 
 Default: compute per update (p50/p99/max) with 16 benign aircraft + 1 spoofer, 120 s of
-seeded synthetic traffic (``tests/gcs/synthetic.py``, the sim radio's model at 1 dB), random
+seeded synthetic traffic (``ridsafe/gcs/synthetic``, the sim radio's model at 1 dB), random
 broadcast phases and the worst case of all phases aligned. Target p99 <= 2 ms.
 
 ``--mc``: per receiver count (4, 8, 16) and start (receivers airborne, or at the default
@@ -52,7 +52,8 @@ from ridsafe.common.config import with_overrides
 from ridsafe.common.messages import RidsafeDetector
 from ridsafe.gcs.pipeline import EstimationPipeline
 from ridsafe.gcs.pipeline_config import ForcedAlertConfig, PipelineConfig
-from tests.gcs.synthetic import SPOOFER_ID, RunMetrics, Scene, make_traffic, run_pipeline
+from ridsafe.gcs.synthetic.evaluate import RunMetrics, run_pipeline
+from ridsafe.gcs.synthetic.traffic import SPOOFER_ID, Scene, make_traffic
 
 FORCED = ForcedAlertConfig(enabled=True, uas_id=SPOOFER_ID, time_s=5.0)
 ESTIMATORS: dict[str, dict[str, object]] = {

@@ -71,6 +71,8 @@ __all__ = [
     "body_rates_frd_to_flu",
     "course_deg_from_velocity_enu",
     "course_deg_from_velocity_ned",
+    "cov_enu_to_ned",
+    "cov_ned_to_enu",
     "ecef_to_geodetic",
     "enu_to_geodetic",
     "enu_to_geodetic_point",
@@ -290,6 +292,24 @@ def ned_to_enu(v_ned: ArrayLike) -> FloatArray:
     """NED vector(s) (..., 3) -> ENU (..., 3): (n, e, d) -> (e, n, -d). A new array."""
     v = np.asarray(v_ned, dtype=np.float64)
     return np.stack((v[..., 1], v[..., 0], -v[..., 2]), axis=-1)
+
+
+#: ENU <-> NED as index permutation and signs: (e, n, u) -> (n, e, -u), T = its matrix.
+_SWAP_EN = [1, 0, 2]
+_FLIP_UP = np.array([1.0, 1.0, -1.0])
+
+
+def cov_enu_to_ned(cov_enu: ArrayLike) -> FloatArray:
+    """ENU covariance(s) (..., 3, 3) -> NED: T P T^T, T = [[0, 1, 0], [1, 0, 0], [0, 0, -1]].
+    Done as the permutation and sign flips it is (exact, no products). A new array."""
+    c = np.asarray(cov_enu, dtype=np.float64)
+    out: FloatArray = c[..., _SWAP_EN, :][..., _SWAP_EN] * (_FLIP_UP[:, None] * _FLIP_UP)
+    return out
+
+
+def cov_ned_to_enu(cov_ned: ArrayLike) -> FloatArray:
+    """NED covariance(s) (..., 3, 3) -> ENU: T P T^T (T is its own inverse). A new array."""
+    return cov_enu_to_ned(cov_ned)
 
 
 # --------------------------------------------------------------------------------------------

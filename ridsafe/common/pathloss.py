@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
+    "DB_PER_LN",
     "DETECTOR_LOSS_AT_1M_DB",
     "FSPL_CONSTANT_DB",
     "LOSS_AT_1M_2400MHZ_DB",
@@ -56,6 +57,8 @@ LOSS_AT_1M_2400MHZ_DB = 20.0 * math.log10(RID_FREQUENCY_MHZ) + FSPL_CONSTANT_DB 
 DETECTOR_LOSS_AT_1M_DB = 40.04
 #: Distances are clamped to at least this (metres) before taking log10.
 MIN_DISTANCE_M = 1.0
+#: The slope of the loss in ln(distance): d(20 log10 d) / d(ln d) = 20 / ln 10 = 8.686 dB.
+DB_PER_LN = 20.0 / math.log(10.0)
 
 
 def loss_at_1m_db(frequency_mhz: ArrayLike = RID_FREQUENCY_MHZ) -> FloatArray:

@@ -44,6 +44,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ridsafe.common.ellipsoid import mahalanobis2
+
 __all__ = [
     "benign_reward",
     "predicted_region",
@@ -85,7 +87,7 @@ def region_distance_m(
     x = np.asarray(x_m, dtype=np.float64)
     cov = np.asarray(cov_m2, dtype=np.float64)
     delta = x - np.asarray(center_m, dtype=np.float64)
-    m = np.einsum("...i,ij,...j->...", delta, np.linalg.inv(cov), delta)
+    m = mahalanobis2(delta, cov)
     sigma_min = float(np.sqrt(np.linalg.eigvalsh(cov)[0]))
     dist: FloatArray = sigma_min * np.maximum(0.0, np.sqrt(np.maximum(m, 0.0)) - np.sqrt(chi2))
     return dist

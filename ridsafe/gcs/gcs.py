@@ -60,15 +60,14 @@ from ridsafe.gcs.pipeline_api import (
     CycleOutput,
     FloatArray,
     GcsPipeline,
+    ObservedClaim,
     TrackEstimate,
-    Transmission,
     UnsafeRegion,
 )
 
 logger = logging.getLogger(__name__)
 
 COMPANIONS_ENDPOINT = "companions"
-ENU_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 _UPPER = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
 _EPS_S = 1e-9
 #: How a detector is named in the log (10,000 detector records in a 120 s, 16-aircraft run).
@@ -87,7 +86,7 @@ def peer_endpoint(peer: str) -> str:
 
 def cov_enu_to_ned(cov_enu_m2: FloatArray) -> Cov6:
     """(3, 3) ENU covariance -> NED upper triangle (xx, xy, xz, yy, yz, zz): T P T^T."""
-    p = ENU_NED @ np.asarray(cov_enu_m2, dtype=np.float64) @ ENU_NED.T
+    p = frames.cov_enu_to_ned(cov_enu_m2)
     xx, xy, xz, yy, yz, zz = (float(p[i, j]) for i, j in _UPPER)
     return (xx, xy, xz, yy, yz, zz)
 
@@ -98,7 +97,7 @@ def region_message(
     """The wire form of one unsafe region (see the module docstring)."""
     east, north, up = (float(c) for c in region.center_enu_m)
     lat, lon, alt = frames.enu_to_geodetic_point(origin, east, north, up)
-    v = ENU_NED @ np.asarray(region.v_enu_m_s, dtype=np.float64)
+    v = frames.enu_to_ned(region.v_enu_m_s)
     return m.UnsafeRegionMsg(
         t_s=region.t_s,
         valid_until_s=min(region.valid_until_s, now_s + validity_s),
@@ -377,7 +376,7 @@ class Gcs:
         self._log_output(now_s, output, regions)
 
     def _step_pipeline(
-        self, now_s: float, closed: list[Transmission]
+        self, now_s: float, closed: list[ObservedClaim]
     ) -> tuple[CycleOutput, str | None]:
         try:
             return self.pipeline.step(now_s, closed), None

@@ -1,12 +1,12 @@
-"""Observation reports -> transmissions: validation, grouping, bounded history. Pure (no I/O).
+"""Observation reports -> observed claims: validation, grouping, bounded history. Pure (no I/O).
 
 Each companion reports every RID location broadcast it heard (``messages.Observation``,
-geodetic). The GCS turns one report into one :class:`Reception` in the scenario ENU frame
+geodetic). The GCS turns one report into one :class:`ReportedReception` in the scenario ENU frame
 about the origin (``frames.geodetic_to_enu``) and groups the receptions of one broadcast by
 its key ``(uas_id, rid_timestamp_s)``. A group opens at its first reception (GCS sim time
 ``t0``) and closes once ``now_s - t0 >= group_window_s``, so receptions of one broadcast that
 arrive over a few ticks end up together; closed groups become
-``pipeline_api.Transmission`` objects, receptions sorted by receiver id.
+``pipeline_api.ObservedClaim`` objects, receptions sorted by receiver id.
 
 A report is rejected, counted by :class:`RejectReason` and never raised, when:
 
@@ -42,7 +42,7 @@ from ridsafe.common.frames import GeodeticOrigin
 from ridsafe.common.frozen import quick_init
 from ridsafe.common.messages import Observation, Vec3
 from ridsafe.gcs.config import GcsConfig
-from ridsafe.gcs.pipeline_api import Transmission, readonly
+from ridsafe.gcs.pipeline_api import ObservedClaim, readonly
 
 logger = logging.getLogger(__name__)
 
@@ -68,7 +68,7 @@ class RejectReason(enum.Enum):
 
 @quick_init
 @dataclass(frozen=True, slots=True)
-class Reception:
+class ReportedReception:
     """One receiver's report of one broadcast, in the scenario ENU frame."""
 
     rx_sysid: int
@@ -151,12 +151,12 @@ class _Group:
     claimed_geodetic: Vec3  # (lat deg, lon deg, alt m) of the first report
     claimed_p_enu_m: Vec3  # the same in ENU
     claimed_v_enu_m_s: Vec3 | None
-    receptions: dict[int, Reception] = field(default_factory=dict)
+    receptions: dict[int, ReportedReception] = field(default_factory=dict)
 
-    def transmission(self) -> Transmission:
+    def claim(self) -> ObservedClaim:
         rxs = [self.receptions[k] for k in sorted(self.receptions)]
         velocity = None if self.claimed_v_enu_m_s is None else readonly(self.claimed_v_enu_m_s)
-        return Transmission(
+        return ObservedClaim(
             uas_id=self.uas_id,
             rid_timestamp_s=self.rid_timestamp_s,
             claimed_p_enu_m=readonly(self.claimed_p_enu_m),
@@ -202,11 +202,12 @@ class IngestCounters:
 
 
 class Ingest:
-    """Validated receptions grouped by transmission, and a bounded history per transmitter.
+    """Validated receptions grouped by broadcast into observed claims, and a bounded
+    history per transmitter.
 
     ``add(now_s, rx_sysid, obs)`` takes one report (``rx_sysid``: the MAVLink system id that
     sent it) and returns None if kept, else why not. ``close_due(now_s)`` returns the
-    transmissions whose window has passed, oldest first, and records them in the history.
+    claims whose window has passed, oldest first, and records them in the history.
     """
 
     def __init__(self, config: GcsConfig, origin: GeodeticOrigin) -> None:
@@ -215,7 +216,7 @@ class Ingest:
         self.counters = IngestCounters()
         self._open: dict[GroupKey, _Group] = {}
         self._closed: dict[GroupKey, float] = {}  # key -> when it closed (sim time)
-        self._history: OrderedDict[str, deque[Transmission]] = OrderedDict()
+        self._history: OrderedDict[str, deque[ObservedClaim]] = OrderedDict()
 
     @property
     def open_groups(self) -> int:
@@ -226,8 +227,8 @@ class Ingest:
         """Claimed ids with a history, least recently updated first."""
         return tuple(self._history)
 
-    def history(self, uas_id: str) -> tuple[Transmission, ...]:
-        """Recent closed transmissions of ``uas_id``, oldest first (at most the configured)."""
+    def history(self, uas_id: str) -> tuple[ObservedClaim, ...]:
+        """Recent closed claims of ``uas_id``, oldest first (at most the configured)."""
         return tuple(self._history.get(uas_id, ()))
 
     def add(self, now_s: float, rx_sysid: int, obs: Observation) -> RejectReason | None:
@@ -265,24 +266,24 @@ class Ingest:
             self._open[key] = group
         elif rx_sysid in group.receptions:
             return RejectReason.DUPLICATE
-        group.receptions[rx_sysid] = Reception(rx_sysid, obs.t_s, rx_p, obs.rssi_dbm)
+        group.receptions[rx_sysid] = ReportedReception(rx_sysid, obs.t_s, rx_p, obs.rssi_dbm)
         return None
 
-    def close_due(self, now_s: float) -> list[Transmission]:
+    def close_due(self, now_s: float) -> list[ObservedClaim]:
         window = self.config.group_window_s
         due = [k for k, g in self._open.items() if now_s - g.opened_s >= window - _TIME_EPS_S]
-        closed = [self._open.pop(k).transmission() for k in due]
+        closed = [self._open.pop(k).claim() for k in due]
         closed.sort(key=lambda t: (t.t_s, t.uas_id))
         for key in due:
             self._closed[key] = now_s
-        for transmission in closed:
-            self._remember(transmission)
+        for claim in closed:
+            self._remember(claim)
         self.counters.transmissions += len(closed)
         self._forget_closed_keys(now_s)
         return closed
 
-    def _remember(self, transmission: Transmission) -> None:
-        uas_id = transmission.uas_id
+    def _remember(self, claim: ObservedClaim) -> None:
+        uas_id = claim.uas_id
         history = self._history.get(uas_id)
         if history is None:
             history = deque(maxlen=self.config.history_per_transmitter)
@@ -292,7 +293,7 @@ class Ingest:
                 self.counters.evicted_transmitters += 1
                 logger.info("history of %r evicted (max_transmitters reached)", evicted)
         self._history.move_to_end(uas_id)
-        history.append(transmission)
+        history.append(claim)
 
     def _forget_closed_keys(self, now_s: float) -> None:
         horizon = now_s - self.config.history_window_s

@@ -1,10 +1,16 @@
-"""The GCS estimation pipeline: detection -> localisation -> IMM tracking -> unsafe regions.
+"""The GCS estimation pipeline: detection -> initiation -> localisation -> tracking -> region.
 
-``EstimationPipeline.step(now_s, transmissions)`` (the ``GcsPipeline`` protocol of
-``pipeline_api.py``) is called every GCS cycle (0.25 s) with the transmissions that closed
+It composes the concepts, each in its own package: ``detection/`` (spoofing detectors, and
+the registry of those that run), ``initiation/`` (where a track starts), ``localisation/``
+(estimators, and the registry ``pipeline.estimator`` picks from), ``tracking/`` (motion
+models and the IMM), ``region/`` (the chance-constrained ellipsoid); ``tracks.py`` is a
+track's life.
+
+``EstimationPipeline.step(now_s, claims)`` (the ``GcsPipeline`` protocol of
+``pipeline_api.py``) is called every GCS cycle (0.25 s) with the observed claims that closed
 since the last cycle, and answers what it decided. Each cycle:
 
-1. every transmission (in time order) goes through its claimed transmitter's detectors
+1. every claim (in time order) goes through its claimed transmitter's detectors
    (a ``TransmitterMonitor`` per uas_id heard, benign ones too) -> ``DetectorResult``s;
    it is kept ``max(backfill_s, window_s)`` seconds for track initiation, and updates the
    uas_id's track if there is one;
@@ -12,7 +18,7 @@ since the last cycle, and answers what it decided. Each cycle:
    uas_id's alert, once; with ``forced_alert.enabled`` the configured uas_id is raised with
    detector FORCED at ``time_s`` (and the real detectors only report unless
    ``detectors_also_alert``);
-3. every alerted uas_id without a track gets one from its recent transmissions;
+3. every alerted uas_id without a track gets one from its recent claims;
 4. a track whose transmitter was silent ``silence_timeout_s`` is deleted and its alert
    CLEARED (an alert latches while the transmitter is heard: a spoofer that turns honest
    keeps its region until it goes quiet; after a clear, new evidence raises it again);
@@ -35,21 +41,21 @@ from dataclasses import dataclass
 import numpy as np
 
 from ridsafe.common.messages import AlertState, RidsafeDetector
-from ridsafe.common.pathloss import LOSS_AT_1M_2400MHZ_DB
-from ridsafe.gcs import mixture_kernels
-from ridsafe.gcs.detection import TransmitterMonitor
-from ridsafe.gcs.detection_kernels import all_finite
+from ridsafe.common.pathloss import received_power_dbm
+from ridsafe.gcs.detection.monitor import TransmitterMonitor
+from ridsafe.gcs.localisation import mixture_kernels
 from ridsafe.gcs.pipeline_api import (
     AlertChange,
     CycleOutput,
     DetectorResult,
-    Transmission,
+    ObservedClaim,
     UnsafeRegion,
     readonly,
 )
 from ridsafe.gcs.pipeline_config import PipelineConfig, TrackConfig
+from ridsafe.gcs.pipeline_kernels import all_finite
+from ridsafe.gcs.region.unsafe_region import make_region
 from ridsafe.gcs.tracks import Track, finite, initiate
-from ridsafe.gcs.unsafe_region import make_region
 
 logger = logging.getLogger(__name__)
 
@@ -69,26 +75,26 @@ class _Alert:
 
 @dataclass
 class _Heard:
-    """One claimed transmitter: its detectors and its recent transmissions."""
+    """One claimed transmitter: its detectors and its recent claims."""
 
     monitor: TransmitterMonitor
-    recent: deque[Transmission]
+    recent: deque[ObservedClaim]
     last_heard_s: float
-    tried_init_at_s: float = -float("inf")  # newest transmission a track start has seen
+    tried_init_at_s: float = -float("inf")  # newest claim a track start has seen
 
 
 def warm_up() -> None:
     """Load (or compile) every numba kernel once, so no cycle of a run pays for it: one
-    small transmission through detection, a track start and an update. Receiver ids come
+    small claim through detection, a track start and an update. Receiver ids come
     read-only (as from ``ingest``) and writable (as from tests): numba compiles each."""
     rx = np.array([[0.0, 0.0, 50.0], [400.0, 0.0, 80.0], [0.0, 400.0, 40.0], [400.0, 400, 60]])
     p = np.array([150.0, 250.0, 60.0])
-    rssi = 20.0 - 20.0 * np.log10(np.linalg.norm(rx - p, axis=1)) - LOSS_AT_1M_2400MHZ_DB
+    rssi = received_power_dbm(20.0, np.linalg.norm(rx - p, axis=1))
     sysids = np.arange(1, 5, dtype=np.int64)
     frozen_sysids = sysids.copy()
     frozen_sysids.setflags(write=False)
-    txs = [
-        Transmission(
+    claims = [
+        ObservedClaim(
             "warm-up",
             t,
             readonly(p),
@@ -101,26 +107,26 @@ def warm_up() -> None:
         for t, ids in ((0.0, sysids), (1.0, frozen_sysids), (2.0, sysids))
     ]
     cfg = PipelineConfig(tracks=TrackConfig(max_init_std_m=0.0))
-    monitor = TransmitterMonitor("warm-up", cfg.detection, cfg.rssi_sigma_db)
-    for tx in txs:
-        _finite(tx)
-        monitor.observe(tx)
-    track = initiate("warm-up", 0, txs[:2], cfg)
+    monitor = TransmitterMonitor("warm-up", cfg)
+    for claim in claims:
+        _finite(claim)
+        monitor.observe(claim)
+    track = initiate("warm-up", 0, claims[:2], cfg)
     if track is not None:
-        track.update(txs[2])
+        track.update(claims[2])
     # What a small start may not reach: the split test and the pairwise merge distances.
     x, P = np.zeros((2, 7)), np.tile(np.eye(7), (2, 1, 1))
     mixture_kernels.split_curvature(x, P, rx.copy())
     mixture_kernels.pair_mahalanobis2(x[:, :3].copy(), P[:, :3, :3].copy())
 
 
-def _finite(tx: Transmission) -> bool:
+def _finite(claim: ObservedClaim) -> bool:
     return bool(
         all_finite(
-            np.ascontiguousarray(tx.claimed_p_enu_m),
-            np.ascontiguousarray(tx.rx_p_enu_m),
-            np.ascontiguousarray(tx.rssi_dbm),
-            np.ascontiguousarray(tx.rx_t_s),
+            np.ascontiguousarray(claim.claimed_p_enu_m),
+            np.ascontiguousarray(claim.rx_p_enu_m),
+            np.ascontiguousarray(claim.rssi_dbm),
+            np.ascontiguousarray(claim.rx_t_s),
         )
     )
 
@@ -146,22 +152,22 @@ class EstimationPipeline:
 
     # --- the GcsPipeline protocol ---------------------------------------------------------
 
-    def step(self, now_s: float, transmissions: Sequence[Transmission]) -> CycleOutput:
+    def step(self, now_s: float, claims: Sequence[ObservedClaim]) -> CycleOutput:
         start = time.perf_counter()
         for track in self._tracks.values():
             track.fixed_this_cycle = False
         results: list[DetectorResult] = []
         changes: list[AlertChange] = []
-        for tx in sorted(transmissions, key=lambda t: t.t_s):
-            if not _finite(tx):
-                logger.warning("transmission of %s with non-finite values ignored", tx.uas_id)
+        for claim in sorted(claims, key=lambda c: c.t_s):
+            if not _finite(claim):
+                logger.warning("claim of %s with non-finite values ignored", claim.uas_id)
                 continue
-            tx_results = self._detect(tx)
-            results.extend(tx_results)
-            changes.extend(self._maybe_raise(tx.uas_id, tx.t_s, tx_results))
-            live = self._tracks.get(tx.uas_id)
+            claim_results = self._detect(claim)
+            results.extend(claim_results)
+            changes.extend(self._maybe_raise(claim.uas_id, claim.t_s, claim_results))
+            live = self._tracks.get(claim.uas_id)
             if live is not None:
-                live.update(tx)
+                live.update(claim)
         changes.extend(self._forced(now_s))
         self._initiate_tracks()
         deleted, cleared = self._delete_silent(now_s)
@@ -170,9 +176,9 @@ class EstimationPipeline:
         elapsed = time.perf_counter() - start
         self.compute_s.append(elapsed)
         logger.debug(
-            "gcs cycle t=%.2f s: %d transmissions, %d tracks, compute %.3f ms",
+            "gcs cycle t=%.2f s: %d claims, %d tracks, compute %.3f ms",
             now_s,
-            len(transmissions),
+            len(claims),
             len(self._tracks),
             elapsed * 1e3,
         )
@@ -180,18 +186,18 @@ class EstimationPipeline:
 
     # --- detection and alerts -------------------------------------------------------------
 
-    def _detect(self, tx: Transmission) -> tuple[DetectorResult, ...]:
+    def _detect(self, claim: ObservedClaim) -> tuple[DetectorResult, ...]:
         cfg = self.config
-        heard = self._heard.get(tx.uas_id)
+        heard = self._heard.get(claim.uas_id)
         if heard is None:
-            monitor = TransmitterMonitor(tx.uas_id, cfg.detection, cfg.rssi_sigma_db)
-            heard = self._heard[tx.uas_id] = _Heard(monitor, deque(), tx.t_s)
-        heard.last_heard_s = max(heard.last_heard_s, tx.t_s)
+            monitor = TransmitterMonitor(claim.uas_id, cfg)
+            heard = self._heard[claim.uas_id] = _Heard(monitor, deque(), claim.t_s)
+        heard.last_heard_s = max(heard.last_heard_s, claim.t_s)
         keep_s = max(cfg.tracks.backfill_s, cfg.detection.window_s)
-        heard.recent.append(tx)
-        while heard.recent and heard.recent[0].t_s < tx.t_s - keep_s:
+        heard.recent.append(claim)
+        while heard.recent and heard.recent[0].t_s < claim.t_s - keep_s:
             heard.recent.popleft()
-        return heard.monitor.observe(tx)
+        return heard.monitor.observe(claim)
 
     def _detectors_may_alert(self) -> bool:
         forced = self.config.forced_alert

@@ -1,10 +1,15 @@
 """The interface between the GCS shell (ingest, cycle, messaging) and its estimation pipeline.
 
 The shell validates observation reports, converts them into the scenario ENU frame about
-the configured origin, groups them by transmission (claimed id + RID timestamp) and, every
-GCS cycle (0.25 s), hands the pipeline the transmissions that closed since the last cycle.
-The pipeline (detection -> multilateration -> IMM tracking -> unsafe region) answers with
-what it decided; the shell logs it and sends alerts and regions to every companion.
+the configured origin, groups them by broadcast (claimed id + RID timestamp) into
+``ObservedClaim``s and, every GCS cycle (0.25 s), hands the pipeline the claims that closed
+since the last cycle. The pipeline (detection -> initiation -> localisation -> tracking ->
+unsafe region) answers with what it decided; the shell logs it and sends alerts and regions
+to every companion.
+
+An ``ObservedClaim`` is not a radio transmission (that is the sim's
+``sim_backend.radio.Transmission``, the bytes on the air): it is what the GCS learns of one:
+what the broadcast claims, and who reported hearing it, where, when and how loud.
 
 Frames and units: positions ``*_enu_m`` in the scenario ENU frame, covariances in m^2 in
 the same axes, times in sim seconds, powers in dBm.
@@ -34,8 +39,9 @@ def readonly(values: object) -> FloatArray:
 
 
 @dataclass(frozen=True, eq=False)
-class Transmission:
-    """Every reception of one broadcast.
+class ObservedClaim:
+    """One RID broadcast's claim (who, where, how fast) with every reception of it that the
+    companions reported.
 
     ``rx_sysid : (k,) int``, ``rx_p_enu_m : (k, 3)``, ``rx_t_s : (k,)``, ``rssi_dbm : (k,)``:
     receiver ids, their own positions and times at reception, and the RSSI each measured.
@@ -52,8 +58,8 @@ class Transmission:
 
     @functools.cached_property
     def t_s(self) -> float:
-        """When the transmission was heard (earliest reception; computed once, the arrays
-        are read-only)."""
+        """When the broadcast was heard (earliest reception; computed once, the arrays are
+        read-only)."""
         return float(self.rx_t_s.min())
 
     @property
@@ -64,7 +70,7 @@ class Transmission:
 @quick_init
 @dataclass(frozen=True)
 class DetectorResult:
-    """One detector's verdict on one transmission (for logs and ROC curves)."""
+    """One detector's verdict on one observed claim (for logs and ROC curves)."""
 
     uas_id: str
     detector: RidsafeDetector
@@ -122,4 +128,4 @@ class CycleOutput:
 
 
 class GcsPipeline(Protocol):
-    def step(self, now_s: float, transmissions: Sequence[Transmission]) -> CycleOutput: ...
+    def step(self, now_s: float, claims: Sequence[ObservedClaim]) -> CycleOutput: ...

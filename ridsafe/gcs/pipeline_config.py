@@ -14,30 +14,31 @@ Where it gives none, ours, each documented at its field:
 - ``rssi_sigma_db = 1.0``: the scenario's default shadowing (``radio.shadowing_sigma_db``).
   The pipeline assumes it; a run whose radio differs must set both (the detectors' false-alarm
   rate and the ellipsoids' honesty rest on it).
-- ``estimator = RSSI_IMM``: a Gaussian sum of IMMs (CV + CA) whose mode filters carry the
+- ``estimator = 'rssi_imm'``: a Gaussian sum of IMMs (CV + CA) whose mode filters carry the
   transmit power as a state and update on the raw RSSI of every receiver by iterated posterior
-  linearisation (``gaussian_sum.py``). Measured (``bench/bench_gcs.py --mc``, 30 seeds, 1 dB,
-  alert forced at 5 s, receivers airborne): containment at alpha = 0.05 of 0.91 / 0.97 / 0.99
-  and RMSE 50 / 23 / 14 m with 4 / 8 / 16 receivers, against 0.70 / 0.88 / 0.95 and
-  219 / 98 / 61 m for the paper's NLLS -> IMM with Jacobian fix covariances (0.51 / 0.69 / 0.87,
-  362 / 140 / 70 m with the paper's fixed R). ``NLLS_IMM`` is the paper's pipeline, selectable.
+  linearisation (``localisation/gaussian_sum.py``). Measured (``bench/bench_gcs.py --mc``,
+  30 seeds, 1 dB, alert forced at 5 s, receivers airborne): containment at alpha = 0.05 of
+  0.91 / 0.97 / 0.99 and RMSE 50 / 23 / 14 m with 4 / 8 / 16 receivers, against 0.70 / 0.88 /
+  0.95 and 219 / 98 / 61 m for the paper's NLLS -> IMM with Jacobian fix covariances (0.51 /
+  0.69 / 0.87, 362 / 140 / 70 m with the paper's fixed R). ``nlls_imm`` is the paper's
+  pipeline, selectable.
 - detection: tests across receivers and time with a false-alarm probability of 1e-6 per
-  transmission and test, the multilateration check as an exact score test (``detection.py``).
+  transmission and test, the multilateration check as an exact score test
+  (``detection/rssi_consistency.py``).
 """
 
 from __future__ import annotations
 
-import enum
 import math
 from dataclasses import dataclass, field
 from typing import Literal
 
 from ridsafe.common.errors import FieldValueError
 from ridsafe.common.messages import RidsafeDetector
+from ridsafe.gcs.localisation.registry import DEFAULT_ESTIMATOR, check_estimator
 
 __all__ = [
     "DetectionConfig",
-    "Estimator",
     "ForcedAlertConfig",
     "ImmConfig",
     "MultilaterationConfig",
@@ -69,16 +70,9 @@ def _probability_vector(name: str, values: tuple[float, ...]) -> None:
         raise FieldValueError(name, f"sums to {total:.6g}, must be 1")
 
 
-class Estimator(enum.Enum):
-    """Which localisation feeds the IMM."""
-
-    RSSI_IMM = "rssi_imm"  # ours: Gaussian sum of IMMs updated on raw RSSI, Pt as a state
-    NLLS_IMM = "nlls_imm"  # the paper's: NLLS fix per transmission -> linear IMM update
-
-
 @dataclass(frozen=True)
 class DetectionConfig:
-    """Spoofing detectors (``detection.py``)."""
+    """Spoofing detectors (``detection/``; which ones run: ``detection/registry.py``)."""
 
     #: First-metre loss the detectors use (the reference detectors' rounded 40.04 dB).
     loss_at_1m_db: float = 40.04
@@ -133,7 +127,7 @@ class MultilaterationConfig:
 
     min_receivers: int = 4
     #: 'trf' as the paper (scipy least_squares, bounded Pt); 'lm' scipy's MINPACK: the same
-    #: minimum, about four times faster (``multilateration.py``).
+    #: minimum, about four times faster (``localisation/multilateration.py``).
     method: Literal["trf", "lm"] = "trf"
     max_nfev: int = 50
     tx_power_bounds_dbm: tuple[float, float] = (-50.0, 50.0)
@@ -214,7 +208,7 @@ def _diag(name: str, values: tuple[float, ...], size: int, strict: bool = False)
 
 @dataclass(frozen=True)
 class RssiFilterConfig:
-    """Ours (``Estimator.RSSI_IMM``): a Gaussian sum of IMMs (CV + CA, the paper's dt, mu0 and
+    """Ours (``estimator: rssi_imm``): a Gaussian sum of IMMs (CV + CA, the paper's dt, mu0 and
     transition matrix from :class:`ImmConfig`) whose mode filters carry the transmit power as
     a state and update on every receiver's raw RSSI by iterated posterior linearisation.
 
@@ -248,9 +242,9 @@ class RssiFilterConfig:
     reception_gate_sigma: float = 5.0
     #: Std of the receivers' reported positions, folded into each reception's variance.
     rx_position_sigma_m: float = 1.0
-    #: The Gaussian sum (``gaussian_sum.py``): initial altitude hypotheses (moment-matched
-    #: thirds of the 0-120 m band) and their std; one value gives a single IMM started with
-    #: ``tracks.altitude_prior_std_m``.
+    #: The Gaussian sum (``localisation/gaussian_sum.py``): initial altitude hypotheses
+    #: (moment-matched thirds of the 0-120 m band) and their std; one value gives a single IMM
+    #: started with ``tracks.altitude_prior_std_m``.
     altitude_hypotheses_m: tuple[float, ...] = (20.0, 60.0, 100.0)
     hypothesis_std_m: float = 15.0
     #: Hypotheses lighter than this are dropped; a respawned altitude starts at the other.
@@ -376,7 +370,9 @@ class PipelineConfig:
 
     #: RSSI noise the pipeline assumes (dB), matching the scenario's default shadowing.
     rssi_sigma_db: float = 1.0
-    estimator: Estimator = Estimator.RSSI_IMM
+    #: Which estimator a track runs, by its name in ``localisation/registry.py``: 'rssi_imm'
+    #: (ours) or 'nlls_imm' (the paper's NLLS fix -> IMM), or one you registered there.
+    estimator: str = DEFAULT_ESTIMATOR
     detection: DetectionConfig = field(default_factory=DetectionConfig)
     multilateration: MultilaterationConfig = field(default_factory=MultilaterationConfig)
     imm: ImmConfig = field(default_factory=ImmConfig)
@@ -387,3 +383,4 @@ class PipelineConfig:
 
     def __post_init__(self) -> None:
         _positive("rssi_sigma_db", self.rssi_sigma_db)
+        check_estimator(self.estimator)

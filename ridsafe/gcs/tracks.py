@@ -2,12 +2,13 @@
 
 Life of a track (one per alerted uas_id):
 
-- **initiation**: when the uas_id is alerted, from its transmissions of the last
-  ``backfill_s`` seconds (the pipeline keeps them for the detectors anyway): the first one
-  with a joint multilateration fix starts the localiser, the later ones update it in order.
-  No fix possible yet (too few receivers): the pipeline tries again next cycle.
-- **update**: every later transmission of that uas_id, at its reception time.
-- **coasting**: between transmissions (and when a fix is rejected) the estimate is only
+- **initiation**: when the uas_id is alerted, from its observed claims of the last
+  ``backfill_s`` seconds (the pipeline keeps them for the detectors anyway): the configured
+  estimator (``pipeline.estimator``, looked up in ``localisation/registry.py``) starts its
+  localiser from the first claims that allow it, the later ones update it in order. None
+  allows it yet (too few receivers): the pipeline tries again next cycle.
+- **update**: every later claim of that uas_id, at its reception time.
+- **coasting**: between claims (and when one is rejected) the estimate is only
   predicted, to the cycle time, with F and Q over the real interval; ``TrackEstimate.fix`` is
   False on such cycles.
 - **deletion**: when nothing was heard from the uas_id for ``silence_timeout_s``.
@@ -20,10 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ridsafe.gcs.localisers import Localiser, start_localiser
-from ridsafe.gcs.motion_models import POS, VEL
-from ridsafe.gcs.pipeline_api import TrackEstimate, Transmission, readonly
+from ridsafe.gcs.localisation.api import Localiser, estimator_start
+from ridsafe.gcs.pipeline_api import ObservedClaim, TrackEstimate, readonly
 from ridsafe.gcs.pipeline_config import PipelineConfig
+from ridsafe.gcs.tracking.motion_models import POS, VEL
 
 __all__ = ["Track", "initiate"]
 
@@ -39,12 +40,12 @@ class Track:
     fixed_this_cycle: bool = False
     n_updates: int = 0
 
-    def update(self, tx: Transmission) -> bool:
-        """Update with one transmission of this track's uas_id (True if it was used)."""
-        self.last_heard_s = max(self.last_heard_s, tx.t_s)
-        used = self.localiser.update(tx)
+    def update(self, claim: ObservedClaim) -> bool:
+        """Update with one observed claim of this track's uas_id (True if it was used)."""
+        self.last_heard_s = max(self.last_heard_s, claim.t_s)
+        used = self.localiser.update(claim)
         if used:
-            self.last_fix_s = tx.t_s
+            self.last_fix_s = claim.t_s
             self.fixed_this_cycle = True
             self.n_updates += 1
         return used
@@ -70,20 +71,20 @@ class Track:
 def initiate(
     uas_id: str,
     track_id: int,
-    history: Sequence[Transmission],
+    history: Sequence[ObservedClaim],
     cfg: PipelineConfig,
     after_s: float = -float("inf"),
 ) -> Track | None:
     """A track from ``history`` (oldest first), or None if it cannot start one yet
-    (``after_s``: transmissions up to then were tried already)."""
-    started = start_localiser(history, cfg, after_s)
+    (``after_s``: claims up to then were tried already)."""
+    started = estimator_start(cfg.estimator)(history, cfg, after_s)
     if started is None:
         return None
     loc, used = started
     first = history[used - 1]
     track = Track(uas_id, track_id, loc, first.t_s, first.t_s, first.t_s, True, 1)
-    for tx in history[used:]:
-        track.update(tx)
+    for claim in history[used:]:
+        track.update(claim)
     return track
 
 

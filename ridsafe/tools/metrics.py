@@ -68,6 +68,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ridsafe.common import topics
+from ridsafe.common.ellipsoid import mahalanobis2
 from ridsafe.tools.recorder import LogReadError, read_records
 
 __all__ = [
@@ -413,16 +414,6 @@ def _pair_events(
             separated = d >= threshold_m
         total += int(count_entry_events(inside, separated).sum())
     return total
-
-
-def mahalanobis2(d: FloatArray, cov: FloatArray) -> FloatArray:
-    """``d^T P^-1 d`` for d (..., 3) and P (..., 3, 3) broadcast; via eigh so a singular P
-    gives inf off its support instead of failing."""
-    eigenvalues, vectors = np.linalg.eigh(cov)
-    y = np.einsum("...ji,...j->...i", vectors, d)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        terms = np.where(y == 0.0, 0.0, y**2 / np.where(eigenvalues > 0.0, eigenvalues, 0.0))
-    return np.asarray(terms.sum(axis=-1), dtype=np.float64)
 
 
 def _percentile(values: FloatArray, q: float) -> float | None:

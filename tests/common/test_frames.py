@@ -26,6 +26,8 @@ from ridsafe.common.frames import (
     body_rates_frd_to_flu,
     course_deg_from_velocity_enu,
     course_deg_from_velocity_ned,
+    cov_enu_to_ned,
+    cov_ned_to_enu,
     ecef_to_geodetic,
     enu_to_geodetic,
     enu_to_geodetic_point,
@@ -225,6 +227,22 @@ def test_enu_ned_vectors_are_asymmetric_swaps() -> None:
     np.testing.assert_array_equal(ned_to_enu(enu_to_ned(v)), v)
     np.testing.assert_array_equal(enu_to_ned(v), v @ T_ENU_NED.T)
     assert enu_to_ned([1.0, 2.0, 3.0]).shape == (3,)
+
+
+def test_covariance_conversion_is_t_p_t_transpose() -> None:
+    """An asymmetric covariance (every entry distinct) against the matrix product, and a
+    batch; the round trip is exact."""
+    a = np.array([[3.0, 0.5, -0.2], [0.7, 2.0, 0.1], [-0.4, 0.3, 1.5]])
+    cov_enu = a @ a.T
+    expected = T_ENU_NED @ cov_enu @ T_ENU_NED.T
+    np.testing.assert_allclose(cov_enu_to_ned(cov_enu), expected, rtol=0, atol=1e-15)
+    # the vertical variance stays, the east-north block swaps, cross terms with up change sign
+    ned = cov_enu_to_ned(cov_enu)
+    assert ned[2, 2] == cov_enu[2, 2] and ned[0, 0] == cov_enu[1, 1]
+    assert ned[0, 2] == -cov_enu[1, 2] and ned[1, 2] == -cov_enu[0, 2]
+    batch = np.stack((cov_enu, 2.0 * cov_enu))
+    np.testing.assert_array_equal(cov_enu_to_ned(batch)[1], cov_enu_to_ned(2.0 * cov_enu))
+    np.testing.assert_array_equal(cov_ned_to_enu(cov_enu_to_ned(cov_enu)), cov_enu)
 
 
 # --------------------------------------------------------------------------------------------

@@ -64,19 +64,25 @@ def observation(
     )
 
 
-def test_one_report_becomes_one_transmission_in_enu() -> None:
+def test_one_report_becomes_one_observed_claim_in_enu() -> None:
     ingest = Ingest(GcsConfig(), ORIGIN)
     assert ingest.add(1.0, 3, observation(t_s=0.98, rssi_dbm=-71.5)) is None
     assert ingest.close_due(1.2) == []  # window 0.3 s not over yet
-    (tx,) = ingest.close_due(1.3)
-    assert tx.uas_id == SPOOF and tx.rid_timestamp_s == 1200.5
-    np.testing.assert_allclose(tx.claimed_p_enu_m, [300.0, 400.0, 60.0], atol=1e-6)
-    np.testing.assert_allclose(tx.rx_p_enu_m, [[10.0, -20.0, 30.0]], atol=1e-6)
-    assert tx.rx_sysid.tolist() == [3] and tx.rx_t_s.tolist() == [0.98]
-    assert tx.rssi_dbm.tolist() == [-71.5] and tx.t_s == 0.98
-    assert tx.claimed_v_enu_m_s is not None
-    np.testing.assert_allclose(tx.claimed_v_enu_m_s, [5.0, 0.0, -1.0], atol=1e-12)
-    for array in (tx.claimed_p_enu_m, tx.rx_p_enu_m, tx.rx_sysid, tx.rssi_dbm, tx.rx_t_s):
+    (claim,) = ingest.close_due(1.3)
+    assert claim.uas_id == SPOOF and claim.rid_timestamp_s == 1200.5
+    np.testing.assert_allclose(claim.claimed_p_enu_m, [300.0, 400.0, 60.0], atol=1e-6)
+    np.testing.assert_allclose(claim.rx_p_enu_m, [[10.0, -20.0, 30.0]], atol=1e-6)
+    assert claim.rx_sysid.tolist() == [3] and claim.rx_t_s.tolist() == [0.98]
+    assert claim.rssi_dbm.tolist() == [-71.5] and claim.t_s == 0.98
+    assert claim.claimed_v_enu_m_s is not None
+    np.testing.assert_allclose(claim.claimed_v_enu_m_s, [5.0, 0.0, -1.0], atol=1e-12)
+    for array in (
+        claim.claimed_p_enu_m,
+        claim.rx_p_enu_m,
+        claim.rx_sysid,
+        claim.rssi_dbm,
+        claim.rx_t_s,
+    ):
         assert not array.flags.writeable
     assert ingest.counters.accepted == 1 and ingest.counters.transmissions == 1
 
@@ -127,8 +133,8 @@ def test_a_duplicate_reception_is_dropped_and_counted() -> None:
     assert ingest.add(1.0, 1, observation(rssi_dbm=-60.0)) is None
     assert ingest.add(1.05, 1, observation(rssi_dbm=-80.0)) is RejectReason.DUPLICATE
     assert ingest.add(1.05, 2, observation(rssi_dbm=-65.0)) is None
-    (tx,) = ingest.close_due(1.5)
-    assert tx.rx_sysid.tolist() == [1, 2] and tx.rssi_dbm.tolist() == [-60.0, -65.0]
+    (claim,) = ingest.close_due(1.5)
+    assert claim.rx_sysid.tolist() == [1, 2] and claim.rssi_dbm.tolist() == [-60.0, -65.0]
     assert ingest.counters.rejected == {RejectReason.DUPLICATE: 1}
 
 
@@ -140,9 +146,9 @@ def test_a_later_report_claiming_elsewhere_is_checked_on_its_own_claim() -> None
     far = observation(claimed_enu_m=(150_000.0, 0.0, 60.0))
     assert ingest.add(1.0, 4, far) is RejectReason.DISTANCE_RANGE
     assert ingest.add(1.0, 5, observation()) is None
-    (tx,) = ingest.close_due(1.3)
-    assert tx.rx_sysid.tolist() == [3, 5]
-    np.testing.assert_allclose(tx.claimed_p_enu_m, [300.0, 400.0, 60.0], atol=1e-6)
+    (claim,) = ingest.close_due(1.3)
+    assert claim.rx_sysid.tolist() == [3, 5]
+    np.testing.assert_allclose(claim.claimed_p_enu_m, [300.0, 400.0, 60.0], atol=1e-6)
 
 
 def test_receptions_arriving_over_several_ticks_are_grouped_per_transmission() -> None:

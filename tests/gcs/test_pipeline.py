@@ -12,9 +12,10 @@ from scipy import stats
 
 from ridsafe.common.messages import AlertState, RidsafeDetector
 from ridsafe.gcs.pipeline import EstimationPipeline
-from ridsafe.gcs.pipeline_api import CycleOutput, GcsPipeline, Transmission, readonly
-from ridsafe.gcs.pipeline_config import Estimator, ForcedAlertConfig, PipelineConfig
-from tests.gcs.synthetic import CYCLE_S, SPOOFER_ID, Scene, Traffic, make_traffic, run_pipeline
+from ridsafe.gcs.pipeline_api import CycleOutput, GcsPipeline, ObservedClaim, readonly
+from ridsafe.gcs.pipeline_config import ForcedAlertConfig, PipelineConfig
+from ridsafe.gcs.synthetic.evaluate import run_pipeline
+from ridsafe.gcs.synthetic.traffic import CYCLE_S, SPOOFER_ID, Scene, Traffic, make_traffic
 
 N_DETECTORS = 5
 
@@ -54,7 +55,11 @@ def test_real_detector_alerts_once_then_regions_every_cycle() -> None:
         for track in out.tracks:
             assert track.uas_id == SPOOFER_ID
     n_tx = sum(
-        1 for t, txs in traffic.cycles.items() if t <= 40.0 for tx in txs if tx.n_receivers >= 3
+        1
+        for t, claims in traffic.cycles.items()
+        if t <= 40.0
+        for claim in claims
+        if claim.n_receivers >= 3
     )
     assert sum(len(out.detector_results) for _, out in cycles) == N_DETECTORS * n_tx
 
@@ -77,7 +82,7 @@ def test_silence_deletes_the_track_and_clears_the_alert() -> None:
     traffic = make_traffic(Scene(seed=2, n_receivers=10, duration_s=35.0))
     for t in list(traffic.cycles):  # the spoofer goes quiet after 20 s
         if t > 20.0:
-            traffic.cycles[t] = [tx for tx in traffic.cycles[t] if tx.uas_id != SPOOFER_ID]
+            traffic.cycles[t] = [claim for claim in traffic.cycles[t] if claim.uas_id != SPOOFER_ID]
     cfg = PipelineConfig(
         forced_alert=ForcedAlertConfig(enabled=True, uas_id=SPOOFER_ID, time_s=2.0)
     )
@@ -87,7 +92,10 @@ def test_silence_deletes_the_track_and_clears_the_alert() -> None:
         (t, c) for t, out in cycles for c in out.alert_changes if c.state is AlertState.CLEARED
     ]
     last_heard = max(
-        tx.t_s for txs in traffic.cycles.values() for tx in txs if tx.uas_id == SPOOFER_ID
+        claim.t_s
+        for claims in traffic.cycles.values()
+        for claim in claims
+        if claim.uas_id == SPOOFER_ID
     )
     assert len(deleted) == 1 and last_heard + 10.0 < deleted[0] <= last_heard + 10.0 + CYCLE_S
     assert [t for t, _ in cleared] == deleted
@@ -97,7 +105,7 @@ def test_silence_deletes_the_track_and_clears_the_alert() -> None:
 def test_the_papers_pipeline_is_selectable() -> None:
     traffic = make_traffic(Scene(seed=4, n_receivers=12, duration_s=40.0))
     cfg = PipelineConfig(
-        estimator=Estimator.NLLS_IMM,
+        estimator="nlls_imm",
         forced_alert=ForcedAlertConfig(enabled=True, uas_id=SPOOFER_ID, time_s=5.0),
     )
     metrics = run_pipeline(traffic, cfg)
@@ -135,17 +143,17 @@ def test_default_estimator_is_consistent(start: Literal["airborne", "depots"]) -
 
 def test_non_finite_transmissions_are_ignored() -> None:
     traffic = make_traffic(Scene(seed=0, n_receivers=6, duration_s=5.0))
-    tx = next(tx for txs in traffic.cycles.values() for tx in txs)
-    rssi = tx.rssi_dbm.copy()
+    claim = next(claim for claims in traffic.cycles.values() for claim in claims)
+    rssi = claim.rssi_dbm.copy()
     rssi[0] = np.nan
-    bad = Transmission(
-        tx.uas_id,
-        tx.rid_timestamp_s,
-        tx.claimed_p_enu_m,
+    bad = ObservedClaim(
+        claim.uas_id,
+        claim.rid_timestamp_s,
+        claim.claimed_p_enu_m,
         None,
-        tx.rx_sysid,
-        tx.rx_p_enu_m,
-        tx.rx_t_s,
+        claim.rx_sysid,
+        claim.rx_p_enu_m,
+        claim.rx_t_s,
         readonly(rssi),
     )
     assert EstimationPipeline().step(1.0, [bad]) == CycleOutput()

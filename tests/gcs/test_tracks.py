@@ -1,28 +1,28 @@
-"""Tracks: initiation from recent transmissions, coasting between them, deletion on silence,
-for both estimators."""
+"""Tracks: initiation from recent claims, coasting between them, deletion on silence,
+for every registered estimator."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from ridsafe.gcs.pipeline_api import Transmission, readonly
-from ridsafe.gcs.pipeline_config import Estimator, PipelineConfig
+from ridsafe.common.pathloss import received_power_dbm
+from ridsafe.gcs.localisation.registry import ESTIMATORS
+from ridsafe.gcs.pipeline_api import ObservedClaim, readonly
+from ridsafe.gcs.pipeline_config import PipelineConfig
 from ridsafe.gcs.tracks import initiate
 
-LOSS = 40.0442
 
-
-def _traffic(n_rx: int = 10, seconds: int = 12, seed: int = 0) -> list[Transmission]:
+def _traffic(n_rx: int = 10, seconds: int = 12, seed: int = 0) -> list[ObservedClaim]:
     rng = np.random.default_rng(seed)
     rx = np.column_stack((rng.uniform(-500, 500, (n_rx, 2)), rng.uniform(30, 100, n_rx)))
     out = []
     for t in range(seconds):
         p = np.array([-200.0 + 7.0 * t, 50.0, 60.0])
         d = np.linalg.norm(rx - p, axis=1)
-        rssi = 20.0 - 20.0 * np.log10(d) - LOSS + rng.normal(0, 1.0, n_rx)
+        rssi = received_power_dbm(20.0, d) + rng.normal(0, 1.0, n_rx)
         out.append(
-            Transmission(
+            ObservedClaim(
                 "S",
                 t + 0.3,
                 readonly(p + 50.0),
@@ -36,11 +36,11 @@ def _traffic(n_rx: int = 10, seconds: int = 12, seed: int = 0) -> list[Transmiss
     return out
 
 
-@pytest.mark.parametrize("estimator", list(Estimator))
-def test_initiation_coasting_and_silence(estimator: Estimator) -> None:
+@pytest.mark.parametrize("estimator", sorted(ESTIMATORS))
+def test_initiation_coasting_and_silence(estimator: str) -> None:
     cfg = PipelineConfig(estimator=estimator)
-    txs = _traffic()
-    track = initiate("S", 7, txs[:6], cfg)
+    claims = _traffic()
+    track = initiate("S", 7, claims[:6], cfg)
     assert track is not None and track.track_id == 7 and track.uas_id == "S"
     assert track.last_heard_s == pytest.approx(5.3)
     coasting = [track.estimate(t) for t in (5.5, 6.0, 8.0)]
@@ -48,7 +48,7 @@ def test_initiation_coasting_and_silence(estimator: Estimator) -> None:
     assert spread[0] < spread[1] < spread[2]  # uncertainty grows while coasting
     track.fixed_this_cycle = False
     assert not track.estimate(6.0).fix
-    assert track.update(txs[6]) and track.last_fix_s == pytest.approx(6.3)
+    assert track.update(claims[6]) and track.last_fix_s == pytest.approx(6.3)
     est = track.estimate(6.5)
     assert est.fix and est.mode_probabilities.sum() == pytest.approx(1.0)
     truth = np.array([-200.0 + 7.0 * 6.5, 50.0, 60.0])
@@ -57,7 +57,7 @@ def test_initiation_coasting_and_silence(estimator: Estimator) -> None:
     assert track.silent(6.3 + cfg.tracks.silence_timeout_s + 0.1, cfg)
 
 
-@pytest.mark.parametrize("estimator", list(Estimator))
-def test_no_track_without_enough_receivers(estimator: Estimator) -> None:
+@pytest.mark.parametrize("estimator", sorted(ESTIMATORS))
+def test_no_track_without_enough_receivers(estimator: str) -> None:
     cfg = PipelineConfig(estimator=estimator)
     assert initiate("S", 1, _traffic(n_rx=3, seconds=4), cfg) is None

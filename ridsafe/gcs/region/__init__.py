@@ -1,0 +1,1 @@
+"""The chance-constrained unsafe region around an estimate (``unsafe_region.py``)."""

@@ -1,0 +1,128 @@
+"""The Gaussian sum of RSSI IMMs (started from the grid posterior), and its compiled
+bookkeeping against numpy and the containment reference."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ridsafe.common.ellipsoid import mahalanobis2
+from ridsafe.common.pathloss import DB_PER_LN, received_power_dbm
+from ridsafe.gcs.initiation.grid import GridSeed, grid_posterior
+from ridsafe.gcs.localisation import mixture_kernels
+from ridsafe.gcs.localisation.gaussian_sum import (
+    GaussianSumLocaliser,
+    _split_along,
+    moment_match,
+    moment_match_reference,
+)
+from ridsafe.gcs.pipeline_api import ObservedClaim, readonly
+from ridsafe.gcs.pipeline_config import PipelineConfig
+from ridsafe.gcs.tracking import imm
+from ridsafe.gcs.tracking.imm import Gaussian, ImmState
+
+
+def _claim(
+    t: float, p: np.ndarray, rx: np.ndarray, rng: np.random.Generator, sigma: float = 1.0
+) -> ObservedClaim:
+    d = np.linalg.norm(rx - p, axis=1)
+    rssi = received_power_dbm(20.0, d) + rng.normal(0, sigma, rx.shape[0])
+    k = rx.shape[0]
+    return ObservedClaim(
+        "S",
+        t,
+        readonly(p),
+        None,
+        np.arange(1, k + 1),
+        readonly(rx),
+        readonly(np.full(k, t)),
+        readonly(rssi),
+    )
+
+
+def test_huber_split_preserves_the_first_two_moments() -> None:
+    rng = np.random.default_rng(0)
+    A = rng.normal(size=(10, 10))
+    P = A @ A.T + np.eye(10)
+    x = rng.normal(size=10)
+    state = ImmState((Gaussian(x[None], P[None]),), np.array([[1.0]]), 0.0)
+    e = np.array([0.2, -0.4, 0.9])
+    e /= np.linalg.norm(e)
+    weights = np.array([0.2252246249136750, 0.5495507501726501, 0.2252246249136750])
+    parts = [_split_along(state, e, a).modes[0] for a in (-1.0575154134058, 0.0, 1.0575154134058)]
+    batch = Gaussian(np.concatenate([g.x for g in parts]), np.concatenate([g.P for g in parts]))
+    matched = moment_match(weights, batch)
+    np.testing.assert_allclose(matched.x[0], x, atol=1e-9)
+    np.testing.assert_allclose(matched.P[0], P, rtol=1e-6, atol=1e-6)
+    var_e = e @ P[:3, :3] @ e  # each part is narrower along e
+    assert e @ parts[0].P[0, :3, :3] @ e == pytest.approx(
+        (1 - 2 * weights[0] * 1.0575154134058**2) * var_e
+    )
+
+
+def _localiser(seeds: list[GridSeed]) -> GaussianSumLocaliser:
+    return GaussianSumLocaliser(PipelineConfig(), seeds, 0.0)
+
+
+def _seed(z: float, w: float, xy: tuple[float, float] = (0.0, 0.0)) -> GridSeed:
+    return GridSeed(w, z, np.array(xy), np.eye(2) * 400.0, 20.0, 1.0)
+
+
+def test_merge_and_respawn_keep_the_altitude_layers_covered() -> None:
+    loc = _localiser([_seed(60.0, 0.5), _seed(60.5, 0.5)])
+    fused = loc._merge_close(imm.merge(loc.state, loc.model))
+    assert loc.size == 1 and loc.weights[0] == pytest.approx(1.0)
+    loc._respawn(fused)
+    altitudes = sorted(imm.merge(loc.state, loc.model).x[:, 2])
+    assert altitudes == pytest.approx([20.0, 60.25, 100.0], abs=0.5)
+    respawned = PipelineConfig().rssi_filter.respawn_weight
+    assert sorted(loc.weights)[:2] == pytest.approx([respawned, respawned], rel=0.01)
+
+
+def test_the_sum_tracks_a_transmitter_and_reports_the_mixture() -> None:
+    rng = np.random.default_rng(4)
+    rx = np.column_stack((rng.uniform(-500, 500, (12, 2)), rng.uniform(30, 100, 12)))
+    p0, v = np.array([-300.0, 0.0, 60.0]), np.array([7.0, 0.0, 0.0])
+    claims = [_claim(float(t), p0 + v * t, rx, rng) for t in range(40)]
+    loc = _localiser(grid_posterior(claims[:3], (20.0, 60.0, 100.0), 1.0))
+    loc.state = ImmState(loc.state.modes, loc.state.mu, 2.0)
+    for claim in claims[3:]:
+        assert loc.update(claim)
+        assert loc.size <= PipelineConfig().rssi_filter.max_hypotheses
+    fused, mu = loc.predicted(39.0)
+    e = p0 + v * 39.0 - fused.x[0, :3]
+    assert e @ np.linalg.solve(fused.P[0, :3, :3], e) < 16.3  # chi2_3 at 99.9 %
+    assert np.linalg.norm(e[:2]) < 30.0
+    assert np.linalg.norm(fused.x[0, 3:6] - v) < 2.0
+    assert mu.sum() == pytest.approx(1.0)
+    assert loc.weights.sum() == pytest.approx(1.0)
+
+
+def test_mixture_kernels_match_numpy() -> None:
+    """The compiled bookkeeping against numpy: moments, split curvature and axis, pairwise
+    Mahalanobis distances (inf on and below the diagonal)."""
+    rng = np.random.default_rng(12)
+    H, n = 5, 7
+    A = rng.normal(size=(H, n, n))
+    g = Gaussian(rng.normal(0, 100, (H, n)), A @ np.swapaxes(A, 1, 2) + np.eye(n))
+    w = rng.uniform(0.1, 1.0, H)
+    w /= w.sum()
+    got, ref = moment_match(w, g), moment_match_reference(w, g)
+    np.testing.assert_allclose(got.x, ref.x, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(got.P, ref.P, rtol=1e-12, atol=1e-9)
+    rx = rng.normal(0, 300, (9, 3))
+    curvature, axis = mixture_kernels.split_curvature(g.x, g.P, rx)
+    lam, vec = np.linalg.eigh(g.P[:, :3, :3])
+    d2 = np.min(np.sum((g.x[:, None, :3] - rx[None]) ** 2, axis=2), axis=1)
+    np.testing.assert_allclose(curvature, 0.5 * DB_PER_LN * lam[:, -1] / np.maximum(d2, 1.0))
+    np.testing.assert_allclose(np.abs(np.einsum("hi,hi->h", axis, vec[:, :, -1])), 1.0)
+    m2 = mixture_kernels.pair_mahalanobis2(g.x[:, :3].copy(), g.P[:, :3, :3].copy())
+    for a in range(H):
+        for b in range(H):
+            if b <= a:
+                assert m2[a, b] == np.inf
+                continue
+            d = g.x[a, :3] - g.x[b, :3]
+            assert m2[a, b] == pytest.approx(
+                float(mahalanobis2(d, g.P[a, :3, :3] + g.P[b, :3, :3]))
+            )
