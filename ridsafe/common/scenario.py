@@ -3,7 +3,7 @@
 Positions are metres in the scenario's local ENU frame about ``origin`` (x east, y north,
 z up above the origin's ellipsoid height). App-specific settings (the sim's rates and
 ports, the GCS's filters, the planner's rewards) live in each app's own config section;
-``ridsafe.tools.scenario`` puts the sections of one YAML file together.
+``ridsafe.tools.run.scenario`` puts the sections of one YAML file together.
 """
 
 from __future__ import annotations
