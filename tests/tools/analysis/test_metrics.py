@@ -17,7 +17,6 @@ import pytest
 from numpy.typing import NDArray
 
 from ridsafe.common import topics
-from ridsafe.tools.analysis.encounters import count_entry_events
 from ridsafe.tools.analysis.metrics import METRIC_KEYS, compute_metrics
 from ridsafe.tools.analysis.run_arrays import load_run
 from ridsafe.tools.analysis.series import metric_series
@@ -178,14 +177,6 @@ def opposite(offset_y: float) -> Position:
 
 # --------------------------------------------------------------------------------------------
 # Entry events
-
-
-def test_count_entry_events_counts_episodes_not_samples() -> None:
-    inside = np.array([[0, 0, 1], [1, 0, 1], [1, 0, 0], [0, 0, 0], [1, 0, 1]], dtype=bool)
-    separated = np.array([[1, 1, 0], [0, 1, 0], [0, 1, 1], [1, 1, 0], [0, 1, 0]], dtype=bool)
-    # pair 0: inside at 1-2 (one episode), separated at 3, inside at 4: 2 events
-    # pair 1: never inside; pair 2: inside at 0-1, separated at 2, inside at 4: 2 events
-    assert count_entry_events(inside, separated).tolist() == [2, 0, 2]
 
 
 @pytest.mark.parametrize(("offset_y", "events"), [(40.0, 1), (60.0, 0), (49.9, 1), (50.0, 0)])

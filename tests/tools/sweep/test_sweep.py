@@ -14,7 +14,7 @@ import pytest
 from ridsafe.common.errors import ConfigError
 from ridsafe.tools.cli import run_cmd, sweep_cmd
 from ridsafe.tools.run.scenario import REPO_ROOT, ScenarioFile
-from ridsafe.tools.sweep.config import ParamAxis, SweepConfig, parse_seeds
+from ridsafe.tools.sweep.config import ParamAxis, SweepConfig
 from ridsafe.tools.sweep.engines import DaskEngine, LocalPoolEngine
 from ridsafe.tools.sweep.folder import LOG_FILE, RESULT_FILE, RunOutcome, RunStatus, read_result
 from ridsafe.tools.sweep.plan import (
@@ -64,20 +64,6 @@ class RecordingEngine:
 # The matrix
 
 
-@pytest.mark.parametrize(
-    ("text", "seeds"),
-    [("0:3", (0, 1, 2)), ("5", (5,)), ("0,7,3", (0, 7, 3)), ("0:2, 10:12", (0, 1, 10, 11))],
-)
-def test_seed_ranges(text: str, seeds: tuple[int, ...]) -> None:
-    assert parse_seeds(text) == seeds
-
-
-@pytest.mark.parametrize("text", ["", "3:1", "-1", "0,0", "a:b", "1:2:3"])
-def test_bad_seed_ranges_are_rejected(text: str) -> None:
-    with pytest.raises(ValueError, match="seeds"):
-        parse_seeds(text)
-
-
 def test_the_paper_config_without_a_sweep_section_is_the_papers_matrix() -> None:
     plan = _plan(SweepConfig())
     assert len(plan.specs) == 4 * 30 * 2
@@ -110,13 +96,6 @@ def test_a_sweep_section_is_split_off_and_errors_name_its_key(tmp_path: Path) ->
     bad.write_text(text + "\nsweep:\n  planners: [aware, trust]\n")
     with pytest.raises(ConfigError, match=r"bad.yaml: sweep.planners\[1\]: unknown planner"):
         load_sweep_file(bad)
-
-
-def test_an_axis_may_not_set_the_matrix_own_keys() -> None:
-    with pytest.raises(ValueError, match="axis of the sweep itself"):
-        ParamAxis(("scenario.seed",), (1, 2))
-    with pytest.raises(ValueError, match="distinct, path-safe"):
-        ParamAxis(("pipeline.region.alpha",), (0.1, 0.1))
 
 
 def test_a_spec_flies_what_ridsafe_run_flies_for_the_same_flags() -> None:
