@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import os
 
-# As the ridsafe command line does (ridsafe/tools/cli/main.py): no BLAS worker threads.
+# As the ridsafe command line does (ridsafe/tools/cli/entry_point.py): no BLAS worker threads.
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 

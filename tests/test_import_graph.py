@@ -112,7 +112,7 @@ def test_imports_resolve_to_modules_and_their_packages() -> None:
     edges = graph("ridsafe")
     assert "ridsafe.tools.run.cores" in edges["ridsafe.tools.run.lockstep"]
     assert "ridsafe.tools.run" in edges["ridsafe.tools.run.lockstep"]  # the package runs first
-    assert "ridsafe.tools.cli.main" in edges["ridsafe.tools.cli"]
+    assert "ridsafe.tools.cli.entry_point" in edges["ridsafe.tools.cli"]
 
 
 def test_ridsafe_has_no_import_cycle() -> None:

@@ -2,6 +2,6 @@
 
 import sys
 
-from ridsafe.tools.cli.main import main
+from ridsafe.tools.cli.entry_point import main
 
 sys.exit(main())
