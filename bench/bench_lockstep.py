@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import os
 
-# As the ridsafe command line does (ridsafe/tools/cli.py): no BLAS worker threads.
+# As the ridsafe command line does (ridsafe/tools/cli/entry_point.py): no BLAS worker threads.
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
@@ -80,9 +80,9 @@ def main() -> None:
 
 
 def _one_run(args: argparse.Namespace) -> dict[str, float | None]:
-    from ridsafe.tools import lockstep  # noqa: PLC0415 (imports are not timed)
-    from ridsafe.tools.metrics import compute_metrics  # noqa: PLC0415
-    from ridsafe.tools.scenario import load_scenario_file, with_aircraft  # noqa: PLC0415
+    from ridsafe.tools.analysis.metrics import compute_metrics  # noqa: PLC0415 (not timed)
+    from ridsafe.tools.run import lockstep  # noqa: PLC0415
+    from ridsafe.tools.run.scenario import load_scenario_file, with_aircraft  # noqa: PLC0415
 
     logging.basicConfig(level=logging.ERROR)
     loaded = with_aircraft(load_scenario_file(), args.aircraft)

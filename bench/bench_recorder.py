@@ -21,8 +21,10 @@ from typing import Any
 import numpy as np
 
 from ridsafe.common import topics
-from ridsafe.tools.metrics import compute_metrics
-from ridsafe.tools.recorder import McapRecorder, read_records
+from ridsafe.tools.analysis.metrics import compute_metrics
+from ridsafe.tools.runlog.foxglove_channels import FoxgloveChannels
+from ridsafe.tools.runlog.reader import read_records
+from ridsafe.tools.runlog.writer import McapRecorder
 
 N_BENIGN = 16
 SIM_S = 120.0
@@ -176,7 +178,8 @@ def run_mix() -> list[Entry]:
 def write(path: Path, entries: list[Entry], *, foxglove: bool) -> float:
     """Records per second for writing ``entries`` (close included)."""
     t0 = time.perf_counter()
-    with McapRecorder(path, foxglove=foxglove) as recorder:
+    plugins = (FoxgloveChannels(),) if foxglove else ()
+    with McapRecorder(path, plugins=plugins) as recorder:
         for topic, t_s, record in entries:
             recorder.log(topic, t_s, record)
     return len(entries) / (time.perf_counter() - t0)

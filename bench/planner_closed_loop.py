@@ -1,6 +1,6 @@
 """Seed sweep of the planner-only closed loop: aware vs trust-rid on the same seeds.
 
-Uses ``tests/companion/planner_harness.py`` (16 aircraft from 3 depots in 1 km x 1 km, a
+Uses ``ridsafe.tools.planner_loop`` (16 aircraft from 3 depots in 1 km x 1 km, a
 spoofer crossing the traffic at 60 m with RID offset (+50, +50, 0) m ENU, regions around its
 true position with an honest covariance). Prints one line per seed and planner, then the
 means and standard deviations next to the paper's Table 2 (16 aircraft).
@@ -12,22 +12,14 @@ from __future__ import annotations
 
 import argparse
 import logging
-import sys
 import time
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from tests.companion.planner_harness import (
-    FLEETS,
-    PLANNERS,
-    HarnessConfig,
-    RunResult,
-    run_closed_loop,
-)
+from ridsafe.tools.planner_loop.closed_loop import PLANNERS, RunResult, run_closed_loop
+from ridsafe.tools.planner_loop.fleets import FLEETS
+from ridsafe.tools.planner_loop.layout import HarnessConfig
 
 # Paper Table 2, 16 agents: (benign-benign, benign-spoofer) NMACs per run.
 PAPER = {"aware": (6.767, 0.233), "trust-rid": (6.767, 2.200)}

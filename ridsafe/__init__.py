@@ -8,7 +8,8 @@ Packages (no app imports another app; ``common`` imports no app):
   RID transponders and the radio channel.
 - ``ridsafe.companion``: the per-aircraft companion computer app.
 - ``ridsafe.gcs``: the ground control station app.
-- ``ridsafe.tools``: the ``ridsafe`` command line.
+- ``ridsafe.tools``: the ``ridsafe`` command line, the runners (one factory builds the cores
+  for lockstep and live), the run log and its analysis, sweeps.
 """
 
 __version__ = "0.1.0"

@@ -19,6 +19,7 @@ import time
 from collections.abc import Callable
 from typing import Protocol, runtime_checkable
 
+from ridsafe.common.checks import check_finite
 from ridsafe.common.errors import ClockError
 
 __all__ = ["Clock", "MonotonicClock", "SimClock"]
@@ -94,9 +95,12 @@ class MonotonicClock:
         return f"MonotonicClock(speed={self._speed!r}, now_s={self.now_s()!r})"
 
 
+def _clock_error(name: str, reason: str) -> ClockError:
+    return ClockError(f"{name}: {reason}")
+
+
 def _check_finite(name: str, value: float) -> None:
-    if not math.isfinite(value):
-        raise ClockError(f"expected a finite {name}, got {value!r}")
+    check_finite(name, value, error=_clock_error)
 
 
 class EpochClock:

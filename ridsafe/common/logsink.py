@@ -5,7 +5,7 @@ Every sans-I/O core (sim backend, companion, GCS) takes a ``LogSink`` and calls
 the record is about, and a JSON-serialisable mapping (numbers, strings, bools, None, lists,
 dicts; no numpy scalars or arrays: convert with ``.tolist()`` / ``float()``).
 
-The MCAP recorder (``ridsafe.tools.recorder``) is the sink of a real run; tests use
+The MCAP recorder (``ridsafe.tools.runlog.writer``) is the sink of a real run; tests use
 ``MemorySink``; ``NullSink`` drops everything.
 """
 

@@ -3,15 +3,15 @@
 Positions are metres in the scenario's local ENU frame about ``origin`` (x east, y north,
 z up above the origin's ellipsoid height). App-specific settings (the sim's rates and
 ports, the GCS's filters, the planner's rewards) live in each app's own config section;
-``ridsafe.tools.scenario`` puts the sections of one YAML file together.
+``ridsafe.tools.run.scenario`` puts the sections of one YAML file together.
 """
 
 from __future__ import annotations
 
-import math
 import re
 from dataclasses import dataclass
 
+from ridsafe.common.checks import check_finite_vector
 from ridsafe.common.errors import FieldValueError
 from ridsafe.common.frames import GeodeticOrigin
 
@@ -41,15 +41,6 @@ def check_cta2063_serial(field: str, number: str) -> None:
         )
 
 
-def _check_vec(field: str, vec: Vec3, limit_m: float = AREA_LIMIT_M) -> None:
-    for i, value in enumerate(vec):
-        if not math.isfinite(value) or abs(value) > limit_m:
-            raise FieldValueError(
-                f"{field}[{i}]",
-                f"expected a finite coordinate within +/-{limit_m:g} m, got {value}",
-            )
-
-
 @dataclass(frozen=True)
 class AircraftConfig:
     """One benign aircraft: where it starts on the ground and where it delivers."""
@@ -65,8 +56,8 @@ class AircraftConfig:
         check_cta2063_serial("serial", self.serial)
         if not 0.0 <= self.departure_s <= 86_400.0:
             raise FieldValueError("departure_s", f"expected 0..86400 s, got {self.departure_s}")
-        _check_vec("start_enu_m", self.start_enu_m)
-        _check_vec("goal_enu_m", self.goal_enu_m)
+        check_finite_vector("start_enu_m", self.start_enu_m, AREA_LIMIT_M, " m")
+        check_finite_vector("goal_enu_m", self.goal_enu_m, AREA_LIMIT_M, " m")
         for name in ("start_enu_m", "goal_enu_m"):
             if getattr(self, name)[2] != 0.0:
                 raise FieldValueError(
@@ -90,9 +81,9 @@ class SpooferConfig:
 
     def __post_init__(self) -> None:
         check_cta2063_serial("serial", self.serial)
-        _check_vec("start_enu_m", self.start_enu_m)
-        _check_vec("goal_enu_m", self.goal_enu_m)
-        _check_vec("offset_enu_m", self.offset_enu_m, 10_000.0)
+        check_finite_vector("start_enu_m", self.start_enu_m, AREA_LIMIT_M, " m")
+        check_finite_vector("goal_enu_m", self.goal_enu_m, AREA_LIMIT_M, " m")
+        check_finite_vector("offset_enu_m", self.offset_enu_m, 10_000.0, " m")
         if not 0.0 < self.speed_m_s <= 8.0:
             raise FieldValueError("speed_m_s", f"expected 0 < speed <= 8 m/s, got {self.speed_m_s}")
         if self.start_enu_m[2] < 5.0:

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ridsafe.common import frames
+from ridsafe.common.checks import check_in_interval
 from ridsafe.common.errors import FieldValueError
 from ridsafe.common.scenario import Scenario, check_cta2063_serial
 
@@ -126,13 +127,15 @@ class CompanionConfig:
     operator_id: str = DEFAULT_OPERATOR_ID
 
     def __post_init__(self) -> None:
-        _check_range("cruise_speed_m_s", self.cruise_speed_m_s, 0.0, MAX_AIRCRAFT_SPEED_M_S)
-        _check_range("takeoff_alt_m", self.takeoff_alt_m, 1.0, 500.0)
-        _check_range("rid_location_period_s", self.rid_location_period_s, 0.0, 1.0)
-        _check_range("rid_static_period_s", self.rid_static_period_s, 0.0, RID_STATIC_MAX_PERIOD_S)
-        _check_range("rid_system_update_period_s", self.rid_system_update_period_s, 0.0, 3.0)
+        check_in_interval("cruise_speed_m_s", self.cruise_speed_m_s, 0.0, MAX_AIRCRAFT_SPEED_M_S)
+        check_in_interval("takeoff_alt_m", self.takeoff_alt_m, 1.0, 500.0)
+        check_in_interval("rid_location_period_s", self.rid_location_period_s, 0.0, 1.0)
+        check_in_interval(
+            "rid_static_period_s", self.rid_static_period_s, 0.0, RID_STATIC_MAX_PERIOD_S
+        )
+        check_in_interval("rid_system_update_period_s", self.rid_system_update_period_s, 0.0, 3.0)
         for name in _POSITIVE:
-            _check_range(name, getattr(self, name), 0.0, math.inf)
+            check_in_interval(name, getattr(self, name), 0.0, math.inf)
         if self.approach_radius_m < self.arrival_radius_m:
             raise FieldValueError(
                 "approach_radius_m",
@@ -167,12 +170,6 @@ _POSITIVE = (
 )
 
 
-def _check_range(name: str, value: float, low: float, high: float) -> None:
-    """low < value <= high (and finite unless high is infinite)."""
-    if math.isnan(value) or not low < value <= high or value == math.inf:
-        raise FieldValueError(name, f"expected {low:g} < value <= {high:g}, got {value}")
-
-
 def _check_operator_id(text: str) -> None:
     if not (0 < len(text) <= 20 and text.isascii() and text.isprintable()):
         raise FieldValueError(
@@ -200,7 +197,7 @@ class CompanionSpec:
             raise FieldValueError("sysid", f"expected 1..250, got {self.sysid}")
         check_cta2063_serial("serial", self.serial)
         frames.GeodeticOrigin(self.goal_lat_deg, self.goal_lon_deg)  # validates the range
-        _check_range("cruise_alt_m", self.cruise_alt_m, 0.0, 500.0)
+        check_in_interval("cruise_alt_m", self.cruise_alt_m, 0.0, 500.0)
         _check_operator_id(self.operator_id)
 
     @classmethod

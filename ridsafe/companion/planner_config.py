@@ -53,6 +53,7 @@ import enum
 import math
 from dataclasses import dataclass
 
+from ridsafe.common.checks import check_positive_fields
 from ridsafe.common.errors import FieldValueError
 
 __all__ = ["GRAVITY_M_S2", "ArrivalAction", "PlannerConfig"]
@@ -136,14 +137,16 @@ class PlannerConfig:
         self._check_envelope()
 
     def _check_rewards(self) -> None:
-        _positive(
+        check_positive_fields(
             self, "goal_reward", "goal_gate_m", "goal_vertical_weight", "d_safe_m", "region_gate_m"
         )
-        _positive(
+        check_positive_fields(
             self, "arrival_radius_m", "approach_radius_m", "stuck_after_s", "stuck_progress_m"
         )
-        _positive(self, "neighbour_max_age_s", "region_margin_m", "approach_min_separation_m")
-        _positive(
+        check_positive_fields(
+            self, "neighbour_max_age_s", "region_margin_m", "approach_min_separation_m"
+        )
+        check_positive_fields(
             self, may_be_zero=("region_velocity_std_m_s", "right_turn_bias", "hazard_mean_weight")
         )
         for name in ("benign_reward_base", "region_reward"):
@@ -191,8 +194,8 @@ class PlannerConfig:
                 )
 
     def _check_rollouts(self) -> None:
-        _positive(self, "horizon_s", "accel_m_s2", "replan_period_s", "velocity_lead_s")
-        _positive(self, may_be_zero=("target_lead_s",))
+        check_positive_fields(self, "horizon_s", "accel_m_s2", "replan_period_s", "velocity_lead_s")
+        check_positive_fields(self, may_be_zero=("target_lead_s",))
         if self.n_samples < 1:
             raise FieldValueError("n_samples", f"must be >= 1, got {self.n_samples}")
         if self.extension_samples < 0:
@@ -200,7 +203,7 @@ class PlannerConfig:
                 "extension_samples", f"must be >= 0, got {self.extension_samples}"
             )
         if self.extension_samples > 0:
-            _positive(self, "extension_s")
+            check_positive_fields(self, "extension_s")
         for name in ("target_lead_s", "velocity_lead_s"):
             if getattr(self, name) > self.horizon_s:
                 raise FieldValueError(
@@ -215,7 +218,7 @@ class PlannerConfig:
             )
 
     def _check_envelope(self) -> None:
-        _positive(self, "max_speed_m_s", "max_climb_m_s", "max_descent_m_s")
+        check_positive_fields(self, "max_speed_m_s", "max_climb_m_s", "max_descent_m_s")
         if not 0.0 < self.max_tilt_deg < 90.0:
             raise FieldValueError("max_tilt_deg", f"must lie in (0, 90), got {self.max_tilt_deg}")
         if not 0.0 <= self.min_altitude_m < self.max_altitude_m:
@@ -244,13 +247,3 @@ class PlannerConfig:
         climb, descend and hover."""
         headings = self.n_headings + len(self.goal_heading_offsets_deg)
         return headings * len(self.speeds_m_s) * len(self.flight_path_angles_deg) + 3
-
-
-def _positive(cfg: PlannerConfig, *names: str, may_be_zero: tuple[str, ...] = ()) -> None:
-    """Each named field must be finite and > 0 (those in ``may_be_zero``: >= 0)."""
-    for name in (*names, *may_be_zero):
-        value = getattr(cfg, name)
-        ok = value >= 0.0 if name in may_be_zero else value > 0.0
-        if not (math.isfinite(value) and ok):
-            bound = ">= 0" if name in may_be_zero else "> 0"
-            raise FieldValueError(name, f"must be finite and {bound}, got {value!r}")

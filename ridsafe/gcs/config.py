@@ -17,9 +17,14 @@ Times are sim seconds. ``clock`` says where the GCS's sim time comes from:
 from __future__ import annotations
 
 import enum
-import math
 from dataclasses import dataclass
 
+from ridsafe.common.checks import (
+    check_at_least,
+    check_increasing,
+    check_positive,
+    check_positive_fields,
+)
 from ridsafe.common.errors import FieldValueError
 
 #: MAVLink identity of the GCS (a ground station, like QGroundControl / MAVProxy).
@@ -68,33 +73,17 @@ class GcsConfig:
             "peer_timeout_s",
             "counters_period_s",
         )
-        for name in positive:
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0.0):
-                raise FieldValueError(name, f"expected a finite number > 0, got {value!r}")
-        for name in ("future_tolerance_s", "warn_interval_s"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0.0):
-                raise FieldValueError(name, f"expected a finite number >= 0, got {value!r}")
+        check_positive_fields(
+            self, *positive, may_be_zero=("future_tolerance_s", "warn_interval_s")
+        )
         for name in ("history_per_transmitter", "max_transmitters", "max_open_groups", "max_peers"):
-            if getattr(self, name) < 1:
-                raise FieldValueError(name, f"expected >= 1, got {getattr(self, name)}")
-        _check_range("rssi", self.rssi_min_dbm, self.rssi_max_dbm)
-        _check_range("alt", self.alt_min_m, self.alt_max_m)
-        if not (math.isfinite(self.max_distance_m) and self.max_distance_m > 0.0):
-            raise FieldValueError("max_distance_m", f"expected > 0, got {self.max_distance_m}")
+            check_at_least(name, getattr(self, name), 1)
+        check_increasing("rssi_min_dbm", self.rssi_min_dbm, "rssi_max_dbm", self.rssi_max_dbm)
+        check_increasing("alt_min_m", self.alt_min_m, "alt_max_m", self.alt_max_m)
+        check_positive("max_distance_m", self.max_distance_m)
         if self.group_window_s >= self.history_window_s:
             raise FieldValueError(
                 "group_window_s",
                 f"expected less than history_window_s ({self.history_window_s}), "
                 f"got {self.group_window_s}",
             )
-
-
-def _check_range(prefix: str, low: float, high: float) -> None:
-    unit = "dbm" if prefix == "rssi" else "m"
-    if not (math.isfinite(low) and math.isfinite(high) and low < high):
-        raise FieldValueError(
-            f"{prefix}_min_{unit}",
-            f"expected finite {prefix}_min < {prefix}_max, got {low}, {high}",
-        )

@@ -29,10 +29,15 @@ Where it gives none, ours, each documented at its field:
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Literal
 
+from ridsafe.common.checks import (
+    check_covariance_diagonal,
+    check_non_negative,
+    check_positive,
+    check_probability_vector,
+)
 from ridsafe.common.errors import FieldValueError
 from ridsafe.common.messages import RidsafeDetector
 from ridsafe.gcs.localisation.registry import DEFAULT_ESTIMATOR, check_estimator
@@ -47,27 +52,6 @@ __all__ = [
     "RssiFilterConfig",
     "TrackConfig",
 ]
-
-_SUM_TOL = 1e-6
-
-
-def _positive(name: str, value: float) -> None:
-    if not value > 0.0:
-        raise FieldValueError(name, f"expected > 0, got {value}")
-
-
-def _non_negative(name: str, value: float) -> None:
-    if not value >= 0.0:
-        raise FieldValueError(name, f"expected >= 0, got {value}")
-
-
-def _probability_vector(name: str, values: tuple[float, ...]) -> None:
-    for i, p in enumerate(values):
-        if not 0.0 <= p <= 1.0:
-            raise FieldValueError(f"{name}[{i}]", f"expected a probability in [0, 1], got {p}")
-    total = math.fsum(values)
-    if abs(total - 1.0) > _SUM_TOL:
-        raise FieldValueError(name, f"sums to {total:.6g}, must be 1")
 
 
 @dataclass(frozen=True)
@@ -104,18 +88,18 @@ class DetectionConfig:
     )
 
     def __post_init__(self) -> None:
-        _non_negative("loss_at_1m_db", self.loss_at_1m_db)
-        _non_negative("position_sigma_m", self.position_sigma_m)
+        check_non_negative("loss_at_1m_db", self.loss_at_1m_db)
+        check_non_negative("position_sigma_m", self.position_sigma_m)
         if self.min_receivers < 2:
             raise FieldValueError("min_receivers", f"expected >= 2, got {self.min_receivers}")
         for name in ("nis_q_db2", "nis_r_db2", "nis_p0_db2", "nis_threshold", "window_s"):
-            _positive(name, getattr(self, name))
+            check_positive(name, getattr(self, name))
         if not 0.0 < self.p_false_alarm < 0.5:
             raise FieldValueError(
                 "p_false_alarm", f"expected 0 < p < 0.5, got {self.p_false_alarm}"
             )
-        _non_negative("cusum_drift", self.cusum_drift)
-        _positive("cusum_threshold", self.cusum_threshold)
+        check_non_negative("cusum_drift", self.cusum_drift)
+        check_positive("cusum_threshold", self.cusum_threshold)
         for i, det in enumerate(self.alerting):
             if det is RidsafeDetector.FORCED:
                 raise FieldValueError(f"alerting[{i}]", "FORCED is set in forced_alert")
@@ -147,7 +131,7 @@ class MultilaterationConfig:
     tx_power_q_db2_s: float = 1e-4
 
     def __post_init__(self) -> None:
-        _non_negative("tx_power_q_db2_s", self.tx_power_q_db2_s)
+        check_non_negative("tx_power_q_db2_s", self.tx_power_q_db2_s)
         if self.min_receivers < 4:
             raise FieldValueError("min_receivers", f"expected >= 4, got {self.min_receivers}")
         if self.max_nfev < 1:
@@ -156,8 +140,10 @@ class MultilaterationConfig:
         if not low < high:
             raise FieldValueError("tx_power_bounds_dbm", f"expected low < high, got {low}, {high}")
         for name in ("covariance_inflation", "max_condition", "max_position_std_m", "max_range_m"):
-            _positive(name, getattr(self, name))
-        _non_negative("position_only_below_power_std_db", self.position_only_below_power_std_db)
+            check_positive(name, getattr(self, name))
+        check_non_negative(
+            "position_only_below_power_std_db", self.position_only_below_power_std_db
+        )
 
 
 Matrix2 = tuple[tuple[float, float], tuple[float, float]]
@@ -184,26 +170,16 @@ class ImmConfig:
     gate_chi2: float = 11.34
 
     def __post_init__(self) -> None:
-        _positive("dt_s", self.dt_s)
-        _probability_vector("mu0", self.mu0)
+        check_positive("dt_s", self.dt_s)
+        check_probability_vector("mu0", self.mu0)
         for i, row in enumerate(self.transition):
-            _probability_vector(f"transition[{i}]", row)
-        _diag("q_cv_diag", self.q_cv_diag, 6)
-        _diag("q_ca_diag", self.q_ca_diag, 9)
-        _diag("r_cv_diag", self.r_cv_diag, 3, strict=True)
-        _diag("r_ca_diag", self.r_ca_diag, 3, strict=True)
-        _positive("lift_accel_var_m2_s4", self.lift_accel_var_m2_s4)
-        _non_negative("gate_chi2", self.gate_chi2)
-
-
-def _diag(name: str, values: tuple[float, ...], size: int, strict: bool = False) -> None:
-    """A covariance given by its diagonal: PSD (or PD when ``strict``) and of ``size``."""
-    if len(values) != size:
-        raise FieldValueError(name, f"expected {size} values, got {len(values)}")
-    for i, v in enumerate(values):
-        if v < 0.0 or (strict and v == 0.0):
-            bound = "> 0" if strict else ">= 0"
-            raise FieldValueError(f"{name}[{i}]", f"covariance diagonal must be {bound}, got {v}")
+            check_probability_vector(f"transition[{i}]", row)
+        check_covariance_diagonal("q_cv_diag", self.q_cv_diag, 6)
+        check_covariance_diagonal("q_ca_diag", self.q_ca_diag, 9)
+        check_covariance_diagonal("r_cv_diag", self.r_cv_diag, 3, strictly_positive=True)
+        check_covariance_diagonal("r_ca_diag", self.r_ca_diag, 3, strictly_positive=True)
+        check_positive("lift_accel_var_m2_s4", self.lift_accel_var_m2_s4)
+        check_non_negative("gate_chi2", self.gate_chi2)
 
 
 @dataclass(frozen=True)
@@ -258,7 +234,7 @@ class RssiFilterConfig:
 
     def __post_init__(self) -> None:
         for name in ("q_cv_accel_m2_s3", "q_ca_jerk_m2_s5", "lift_accel_var_m2_s4"):
-            _positive(name, getattr(self, name))
+            check_positive(name, getattr(self, name))
         for name in (
             "vertical_noise_ratio",
             "ca_vertical_noise_ratio",
@@ -266,19 +242,19 @@ class RssiFilterConfig:
             "z_diffusion_m2_s",
             "q_tx_power_db2_s",
         ):
-            _non_negative(name, getattr(self, name))
+            check_non_negative(name, getattr(self, name))
         if self.max_iterations < 1:
             raise FieldValueError("max_iterations", f"expected >= 1, got {self.max_iterations}")
-        _positive("step_tol_m", self.step_tol_m)
-        _positive("reception_gate_sigma", self.reception_gate_sigma)
-        _non_negative("rx_position_sigma_m", self.rx_position_sigma_m)
+        check_positive("step_tol_m", self.step_tol_m)
+        check_positive("reception_gate_sigma", self.reception_gate_sigma)
+        check_non_negative("rx_position_sigma_m", self.rx_position_sigma_m)
         self._check_sum()
 
     def _check_sum(self) -> None:
         k = len(self.altitude_hypotheses_m)
         if k == 0:
             raise FieldValueError("altitude_hypotheses_m", "expected at least one altitude")
-        _positive("hypothesis_std_m", self.hypothesis_std_m)
+        check_positive("hypothesis_std_m", self.hypothesis_std_m)
         if not 0.0 <= self.prune_weight < 0.5:
             raise FieldValueError("prune_weight", f"expected 0 <= w < 0.5, got {self.prune_weight}")
         if not (
@@ -289,8 +265,8 @@ class RssiFilterConfig:
                 "respawn_weight",
                 f"expected prune_weight < w < 1/max_hypotheses, got {self.respawn_weight}",
             )
-        _non_negative("merge_distance", self.merge_distance)
-        _non_negative("split_nonlinearity_db", self.split_nonlinearity_db)
+        check_non_negative("merge_distance", self.merge_distance)
+        check_non_negative("split_nonlinearity_db", self.split_nonlinearity_db)
         if self.max_hypotheses < k:
             raise FieldValueError(
                 "max_hypotheses",
@@ -321,8 +297,8 @@ class TrackConfig:
     init_vertical_accel_std_m_s2: float = 0.01
 
     def __post_init__(self) -> None:
-        _non_negative("backfill_s", self.backfill_s)
-        _non_negative("max_init_std_m", self.max_init_std_m)
+        check_non_negative("backfill_s", self.backfill_s)
+        check_non_negative("max_init_std_m", self.max_init_std_m)
         for name in (
             "silence_timeout_s",
             "altitude_prior_std_m",
@@ -331,7 +307,7 @@ class TrackConfig:
             "init_accel_std_m_s2",
             "init_vertical_accel_std_m_s2",
         ):
-            _positive(name, getattr(self, name))
+            check_positive(name, getattr(self, name))
 
 
 @dataclass(frozen=True)
@@ -345,7 +321,7 @@ class RegionConfig:
     def __post_init__(self) -> None:
         if not 0.0 < self.alpha < 1.0:
             raise FieldValueError("alpha", f"expected 0 < alpha < 1, got {self.alpha}")
-        _positive("validity_s", self.validity_s)
+        check_positive("validity_s", self.validity_s)
 
 
 @dataclass(frozen=True)
@@ -361,7 +337,7 @@ class ForcedAlertConfig:
     def __post_init__(self) -> None:
         if self.enabled and not self.uas_id:
             raise FieldValueError("uas_id", "a forced alert needs the uas_id to alert on")
-        _non_negative("time_s", self.time_s)
+        check_non_negative("time_s", self.time_s)
 
 
 @dataclass(frozen=True)
@@ -382,5 +358,5 @@ class PipelineConfig:
     forced_alert: ForcedAlertConfig = field(default_factory=ForcedAlertConfig)
 
     def __post_init__(self) -> None:
-        _positive("rssi_sigma_db", self.rssi_sigma_db)
+        check_positive("rssi_sigma_db", self.rssi_sigma_db)
         check_estimator(self.estimator)

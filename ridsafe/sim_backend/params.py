@@ -18,25 +18,15 @@ the rest are ours, tuned on this model (see ``tests/sim_backend/test_controller.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
+from ridsafe.common.checks import check_numeric_fields_positive
 from ridsafe.common.errors import FieldValueError
 
 __all__ = ["ControllerParams", "OctorotorParams"]
 
 # The longest physics step we accept: RK4 on this airframe's rate loop stays accurate below it.
 MAX_PHYSICS_STEP_S = 0.005
-
-
-def _require_positive_finite(obj: object, may_be_zero: tuple[str, ...] = ()) -> None:
-    """Every numeric field of ``obj`` must be finite and > 0 (>= 0 for ``may_be_zero``)."""
-    for f in fields(obj):  # type: ignore[arg-type]
-        value = getattr(obj, f.name)
-        if isinstance(value, float | int) and not isinstance(value, bool):
-            floor_ok = value >= 0 if f.name in may_be_zero else value > 0
-            if not (math.isfinite(value) and floor_ok):
-                bound = ">= 0" if f.name in may_be_zero else "> 0"
-                raise FieldValueError(f.name, f"must be finite and {bound}, got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -60,7 +50,7 @@ class OctorotorParams:
     n_torque_levels: int = 7
 
     def __post_init__(self) -> None:
-        _require_positive_finite(self)
+        check_numeric_fields_positive(self)
         if self.thrust_min_n >= self.thrust_max_n:
             raise FieldValueError(
                 "thrust_min_n",
@@ -132,7 +122,9 @@ class ControllerParams:
     quantise_to_action_set: bool = False
 
     def __post_init__(self) -> None:
-        _require_positive_finite(self, may_be_zero=("vel_int_gain_xy_1_s2", "vel_int_gain_z_1_s2"))
+        check_numeric_fields_positive(
+            self, may_be_zero=("vel_int_gain_xy_1_s2", "vel_int_gain_z_1_s2")
+        )
         for name in ("physics_hz", "controller_hz"):
             if not isinstance(getattr(self, name), int):
                 raise FieldValueError(name, f"must be an int, got {getattr(self, name)!r}")

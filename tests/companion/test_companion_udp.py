@@ -26,8 +26,8 @@ from ridsafe.companion.planners import PLANNERS, StraightLinePlanner
 from ridsafe.sim_backend.app import make_runner
 from ridsafe.sim_backend.config import SimConfig, SimPorts
 from ridsafe.sim_backend.world import EndpointKind, SimBackend
-from ridsafe.tools import companion_cmd
-from ridsafe.tools.scenario import load_scenario_file
+from ridsafe.tools.cli import companion_cmd
+from ridsafe.tools.run.scenario import load_scenario_file
 from tests.companion.test_companion_core import make_scenario
 
 SPEED = 5.0

@@ -36,7 +36,7 @@ from ridsafe.companion.planner_eval import (
     score_actions,
 )
 from ridsafe.companion.value import region_distance_m
-from tests.companion.planner_harness import ScriptedSpoofer, fly
+from ridsafe.tools.planner_loop.scripted import ScriptedSpoofer, fly
 
 CHI2_95 = 7.814727903251178
 CRUISE: Vec3 = (0.0, 0.0, -60.0)

@@ -26,9 +26,10 @@ from ridsafe.gcs.app import make_runner
 from ridsafe.gcs.config import GcsConfig
 from ridsafe.gcs.gcs import Gcs
 from ridsafe.gcs.pipeline_api import CycleOutput
-from ridsafe.tools import gcs_cmd
-from ridsafe.tools.recorder import read_records
-from ridsafe.tools.scenario import ScenarioFile, load_scenario_file
+from ridsafe.tools.cli import gcs_cmd
+from ridsafe.tools.run import cores
+from ridsafe.tools.run.scenario import ScenarioFile, load_scenario_file
+from ridsafe.tools.runlog.reader import read_records
 from tests.gcs.test_gcs_core import COMPANION_COMPONENT, KEY, FakePipeline, report
 from tests.gcs.test_ingest import ORIGIN
 
@@ -173,7 +174,7 @@ def _fake_pipeline(_loaded: ScenarioFile) -> FakePipeline:
 def test_gcs_command_runs_signed_and_logs(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
-    monkeypatch.setattr(gcs_cmd, "make_default_pipeline", _fake_pipeline)
+    monkeypatch.setattr(cores, "make_estimation_pipeline", _fake_pipeline)
     key_file = tmp_path / "gcs.key"
     key_file.write_text(KEY.hex())
     argv = ["gcs", "--listen", "udpin:127.0.0.1:0", "--duration", "1", "--speed", "5"]
@@ -204,7 +205,7 @@ def test_gcs_command_reports_bad_arguments(
     capsys: pytest.CaptureFixture[str],
     tmp_path: Path,
 ) -> None:
-    monkeypatch.setattr(gcs_cmd, "make_default_pipeline", _fake_pipeline)
+    monkeypatch.setattr(cores, "make_estimation_pipeline", _fake_pipeline)
     empty = tmp_path / "empty.key"
     empty.write_text("")
     args = parse(["gcs", *(str(empty) if x == "EMPTY" else x for x in extra)])
@@ -225,7 +226,7 @@ def test_epoch_clock_reads_zero_at_the_shared_instant() -> None:
 def test_gcs_command_starts_sim_time_at_t0_unix(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    monkeypatch.setattr(gcs_cmd, "make_default_pipeline", _fake_pipeline)
+    monkeypatch.setattr(cores, "make_estimation_pipeline", _fake_pipeline)
     t0 = time.time() + 0.3
     argv = ["gcs", "--listen", "udpin:127.0.0.1:0", "--t0-unix", repr(t0), "--duration", "0.25"]
     args = parse(argv)
@@ -235,13 +236,13 @@ def test_gcs_command_starts_sim_time_at_t0_unix(
 
 
 def test_default_pipeline_from_the_scenario_file() -> None:
-    pipeline = gcs_cmd.make_default_pipeline(load_scenario_file())
+    pipeline = cores.make_estimation_pipeline(load_scenario_file())
     assert isinstance(pipeline.step(0.0, []), CycleOutput)
 
 
 _CLI = """
 import argparse, sys
-from ridsafe.tools import gcs_cmd
+from ridsafe.tools.cli import gcs_cmd
 parser = argparse.ArgumentParser()
 gcs_cmd.register(parser.add_subparsers())
 args = parser.parse_args(sys.argv[1:])

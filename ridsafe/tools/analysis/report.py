@@ -1,0 +1,237 @@
+"""Reports of sweeps: the paper's Tables 2 and 3 from the run logs, the published values beside.
+
+Input: one or more sweep folders (``ridsafe sweep``), e.g. our defaults and paper mode, read by
+``analysis.sweep_results`` (which results count, and how a cell is computed). Outputs:
+``report.md`` (tables in the paper's layout: metrics x densities, planners in blocks; ``(n=k)``
+marks cells where fewer runs than completed have the metric), ``report.csv`` (one row per
+cell), and the plots of :mod:`ridsafe.tools.analysis.plots`.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from ridsafe.tools.analysis.published import PUBLISHED_RUNS
+from ridsafe.tools.analysis.sweep_results import (
+    PLANNER_LABELS,
+    ROWS,
+    Cell,
+    ReportError,
+    Stat,
+    SweepResults,
+    load_sweep,
+    summarise,
+)
+
+__all__ = ["CSV_HEADER", "ReportFiles", "render_markdown", "write_csv", "write_report"]
+
+
+# --------------------------------------------------------------------------------------------
+# Markdown and CSV
+
+
+def _fmt(value: float | None, digits: int) -> str:
+    return "n/a" if value is None or not math.isfinite(value) else f"{value:.{digits}f}"
+
+
+def _fmt_stat(s: Stat | None, digits: int, runs: int) -> str:
+    if s is None:
+        return "n/a"
+    text = _fmt(s.mean, digits) + ("" if math.isnan(s.std) else f" ± {_fmt(s.std, digits)}")
+    return text + (f" (n={s.n})" if s.n != runs else "")
+
+
+def _fmt_diff(cell: Cell) -> str:
+    if cell.diff is None:
+        return "n/a"
+    z = cell.z
+    return f"{cell.diff:+.{cell.row.digits}f}" + ("" if z is None else f" (z {z:+.1f})")
+
+
+def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    return lines + ["| " + " | ".join(row) + " |" for row in rows]
+
+
+def _section_rows(cells: Sequence[Cell], section: str) -> list[list[str]]:
+    """Rows of one section: per (metric, planner) the published values, then per variant
+    ours and the difference; (metric, planner) pairs with no number anywhere are left out."""
+    rows: list[list[str]] = []
+    densities = sorted({c.density for c in cells})
+    blocks: dict[tuple[str, str], list[Cell]] = {}
+    for cell in cells:
+        if cell.row.section == section:
+            blocks.setdefault((cell.row.key, cell.planner), []).append(cell)
+    for block in blocks.values():
+        if all(c.ours is None and c.published is None for c in block):
+            continue
+        first = block[0]
+        name = [first.row.label, PLANNER_LABELS.get(first.planner, first.planner)]
+        by_variant: dict[str, dict[int, Cell]] = {}
+        for cell in block:
+            by_variant.setdefault(cell.variant, {})[cell.density] = cell
+        any_variant = next(iter(by_variant.values()))
+        if any(c.published is not None for c in block):
+            published = [
+                _fmt_stat(any_variant[d].published, first.row.digits, PUBLISHED_RUNS)
+                if d in any_variant
+                else "n/a"
+                for d in densities
+            ]
+            rows.append([*name, "published", *published])
+            name = ["", ""]
+        for variant, by_density in by_variant.items():
+            ours = [
+                _fmt_stat(by_density[d].ours, first.row.digits, by_density[d].runs)
+                for d in densities
+            ]
+            rows.append([*name, variant, *ours])
+            name = ["", ""]
+            if any(c.published is not None for c in by_density.values()):
+                rows.append(
+                    ["", "", f"Δ {variant}", *(_fmt_diff(by_density[d]) for d in densities)]
+                )
+    return rows
+
+
+_SWEEP_HEADER = (
+    "label",
+    "folder",
+    "config",
+    "flight (s)",
+    "completed",
+    "not completed",
+    "stale",
+    "metrics from log",
+)
+
+
+def _sweep_row(s: SweepResults) -> list[str]:
+    flights = ", ".join(f"{d:g}" for d in s.flights_s)
+    counts = (len(s.records), len(s.problems), s.stale, s.from_logs)
+    return [s.label, str(s.path), s.config, flights, *map(str, counts)]
+
+
+def render_markdown(
+    sweeps: Sequence[SweepResults], cells: Sequence[Cell], plots: Sequence[Path]
+) -> str:
+    densities = sorted({c.density for c in cells})
+    lines = ["# Sweep report", ""]
+    lines += _table(_SWEEP_HEADER, [_sweep_row(s) for s in sweeps])
+    lines += [
+        "",
+        "Cells: mean ± sample std over completed runs ((n=k): only k of them have the metric). "
+        f"published: the paper's value ({PUBLISHED_RUNS} runs per cell). Δ: ours - published, "
+        "z = Δ / sqrt(s²/n + s_pub²/30) (|z| > 2: unlikely to be chance). n/a: no number. "
+        "The published runs flew 120 s; stale: results of another config, ignored.",
+    ]
+    counts = _run_counts(cells, densities)
+    header = ["Metric", "Planner", "Source", *(f"{d} aircraft" for d in densities)]
+    lines += ["", "## Runs completed", "", *_table(header, counts)]
+    for section in dict.fromkeys(row.section for row in ROWS):
+        rows = _section_rows(cells, section)
+        if rows:
+            lines += ["", f"## {section}", "", *_table(header, rows)]
+    if plots:
+        lines += ["", "## Plots", ""] + [f"![{p.stem}]({p.name})" for p in plots]
+    problems = [(s.label, *p) for s in sweeps for p in s.problems]
+    if problems:
+        lines += ["", "## Runs that did not complete", ""]
+        lines += [f"- {label}: {run} {status}: {reason}" for label, run, status, reason in problems]
+    return "\n".join(lines) + "\n"
+
+
+def _run_counts(cells: Sequence[Cell], densities: Sequence[int]) -> list[list[str]]:
+    first = ROWS[0].key
+    table: dict[tuple[str, str], dict[int, int]] = {}
+    for cell in cells:
+        if cell.row.key == first:
+            table.setdefault((cell.planner, cell.variant), {})[cell.density] = cell.runs
+    return [
+        [
+            "runs",
+            PLANNER_LABELS.get(planner, planner),
+            variant,
+            *(str(by_density.get(d, 0)) for d in densities),
+        ]
+        for (planner, variant), by_density in table.items()
+    ]
+
+
+CSV_HEADER = (
+    "section",
+    "metric",
+    "metric_key",
+    "planner",
+    "density",
+    "variant",
+    "runs",
+    "n",
+    "mean",
+    "std",
+    "published_mean",
+    "published_std",
+    "diff",
+    "z",
+)
+
+
+def _num(value: float | None) -> str:
+    return "" if value is None or not math.isfinite(value) else repr(value)
+
+
+def _csv_row(c: Cell) -> list[object]:
+    ours = [] if c.ours is None else [c.ours.n, _num(c.ours.mean), _num(c.ours.std)]
+    pub = [] if c.published is None else [_num(c.published.mean), _num(c.published.std)]
+    head = [c.row.section, c.row.label, c.row.key, c.planner, c.density, c.variant, c.runs]
+    return [*head, *(ours or ["", "", ""]), *(pub or ["", ""]), _num(c.diff), _num(c.z)]
+
+
+def write_csv(cells: Sequence[Cell], path: Path) -> Path:
+    with path.open("w", newline="", encoding="utf-8") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(CSV_HEADER)
+        writer.writerows(_csv_row(cell) for cell in cells)
+    return path
+
+
+# --------------------------------------------------------------------------------------------
+# The report
+
+
+@dataclass(frozen=True)
+class ReportFiles:
+    markdown: Path
+    csv: Path
+    plots: tuple[Path, ...]
+
+
+def write_report(
+    sweep_dirs: Sequence[Path],
+    out: Path,
+    *,
+    recompute: bool = False,
+    with_plots: bool = True,
+    fig3_density: int = 16,
+) -> ReportFiles:
+    """Read the sweeps, write report.md, report.csv and the plots into ``out``."""
+    sweeps = [load_sweep(path, recompute) for path in sweep_dirs]
+    if len({s.label for s in sweeps}) != len(sweeps):  # one config twice: add the folder
+        sweeps = [dataclasses.replace(s, label=f"{s.path.name}/{s.label}") for s in sweeps]
+    if not any(s.records for s in sweeps):
+        raise ReportError(f"no completed runs in {', '.join(map(str, sweep_dirs))}")
+    out.mkdir(parents=True, exist_ok=True)
+    cells = summarise(sweeps)
+    plot_paths: list[Path] = []
+    if with_plots:
+        from ridsafe.tools.analysis.plots import report_plots  # noqa: PLC0415 (matplotlib only here)
+
+        plot_paths = report_plots(sweeps, cells, out, fig3_density)
+    markdown = out / "report.md"
+    markdown.write_text(render_markdown(sweeps, cells, plot_paths), encoding="utf-8")
+    return ReportFiles(markdown, write_csv(cells, out / "report.csv"), tuple(plot_paths))

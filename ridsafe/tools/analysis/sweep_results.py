@@ -1,0 +1,299 @@
+"""Sweep results: the completed runs of sweep folders, their statistics and the report's cells.
+
+Shared by the report (``analysis.report``: tables) and the plots (``analysis.plots``).
+
+Each completed run's metrics are its ``result.json`` cache of
+:func:`ridsafe.tools.sweep.folder.run_metrics` (the log's metrics), recomputed from
+``run.mcap`` when the cache does not match the log's size or with ``recompute=True``. A
+result whose run digest differs from what the folder's ``scenario.yaml`` (the config of its
+latest sweep) gives for its spec is stale: skipped.
+
+Every cell is the mean +/- sample std (ddof 1, as the paper: 0.300 +/- 0.466 is 9 of 30) over
+the completed runs of one (sweep, parameter values, planner, density) that have the metric;
+beside it the published value (``analysis.published``), the difference ours - published and
+``z = diff / sqrt(s^2/n + s_pub^2/30)`` (Welch's statistic: |z| > 2 is unlikely by chance).
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ridsafe.common.config import from_mapping, parse_yaml
+from ridsafe.common.errors import RidsafeError
+from ridsafe.tools.analysis.metrics import METRIC_KEYS
+from ridsafe.tools.analysis.published import PUBLISHED, PUBLISHED_RUNS
+from ridsafe.tools.run.scenario import ScenarioFile
+from ridsafe.tools.sweep.config import ParamValue, format_value
+from ridsafe.tools.sweep.folder import (
+    LOG_FILE,
+    MANIFEST_FILE,
+    RESULT_FILE,
+    SCENARIO_FILE,
+    RunStatus,
+    run_metrics,
+)
+from ridsafe.tools.sweep.plan import RunSpec, safe_run_digest
+
+__all__ = [
+    "PLANNER_LABELS",
+    "ROWS",
+    "Cell",
+    "ReportError",
+    "Row",
+    "RunRecord",
+    "Stat",
+    "SweepResults",
+    "load_sweep",
+    "metric_value",
+    "planner_order",
+    "stat",
+    "summarise",
+]
+
+Metrics = Mapping[str, float | int | None]
+
+PLANNER_LABELS: Mapping[str, str] = {"aware": "SA (aware)", "trust-rid": "Trust-RID"}
+_PLANNER_ORDER = ("aware", "trust-rid")
+
+
+@dataclass(frozen=True)
+class Row:
+    key: str  # a metric of run_metrics, or "total_nmac"
+    label: str
+    section: str
+    digits: int = 3
+
+
+SAFETY = "Safety (paper Table 2)"
+LOCALISATION = "Localisation (paper Table 2; the paper reports SA only)"
+COST = "Computation per run (paper Table 3; the paper ran OMNeT++ on 2 x 16 Xeon cores)"
+EXTRA = "Not reported by the paper"
+ROWS: tuple[Row, ...] = (
+    Row("total_nmac", "Total NMACs", SAFETY),
+    Row("nmac_benign_benign", "Benign-benign NMACs", SAFETY),
+    Row("nmac_benign_spoofer", "Benign-spoofer NMACs", SAFETY),
+    Row("unsafe_violations", "Unsafe violations", SAFETY),
+    Row("containment_rate", "Containment rate", LOCALISATION),
+    Row("rmse_m", "RMSE (m)", LOCALISATION),
+    Row("mae_m", "MAE (m)", LOCALISATION),
+    Row("max_ellipsoid_radius_m", "Max ellipsoid radius (m)", LOCALISATION),
+    Row("wall_clock_s", "Wall clock (s)", COST, 2),
+    Row("gcs_compute_s", "GCS compute (s)", COST, 2),
+    Row("goal_reached_fraction", "Goal reached (fraction)", EXTRA),
+    Row("alert_time_s", "Detection time (s)", EXTRA, 2),
+    Row("detection_delay_s", "Detection delay after 4 aircraft heard it (s)", EXTRA, 2),
+    Row("false_alerts", "False alerts", EXTRA),
+    Row("min_distance_to_spoofer_m", "Min distance to spoofer (m)", EXTRA, 1),
+    Row("gcs_update_p99_ms", "GCS update p99 (ms)", EXTRA, 2),
+    Row("planner_decision_p99_ms", "Planner decision p99 (ms)", EXTRA, 2),
+)
+
+
+class ReportError(RidsafeError):
+    """A folder is not a sweep folder, or holds nothing to report."""
+
+
+# --------------------------------------------------------------------------------------------
+# Reading sweeps
+
+
+@dataclass(frozen=True)
+class RunRecord:
+    """One completed run and its metrics."""
+
+    run_dir: Path
+    spec: RunSpec
+    metrics: Metrics
+
+    @property
+    def density(self) -> int:
+        return self.spec.density
+
+    @property
+    def planner(self) -> str:
+        return self.spec.planner
+
+    @property
+    def params(self) -> tuple[tuple[str, ParamValue], ...]:
+        return self.spec.params
+
+
+@dataclass(frozen=True)
+class SweepResults:
+    path: Path
+    label: str
+    config: str
+    records: tuple[RunRecord, ...]
+    problems: tuple[tuple[str, str, str], ...]  # (run dir, status, last line of the reason)
+    stale: int  # results of another config, skipped
+    from_logs: int  # runs whose metrics were computed from run.mcap now
+
+    @property
+    def flights_s(self) -> tuple[float, ...]:
+        """The flight durations of the completed runs."""
+        return tuple(sorted({r.spec.duration_s for r in self.records}))
+
+    def variants(self) -> list[tuple[tuple[tuple[str, ParamValue], ...], str]]:
+        """(params, label) of each parameter combination present, in first-seen order."""
+        seen: dict[tuple[tuple[str, ParamValue], ...], str] = {}
+        for record in self.records:
+            if record.params not in seen:
+                values = ", ".join(f"{k}={format_value(v)}" for k, v in record.params)
+                seen[record.params] = f"{self.label} [{values}]" if values else self.label
+        return list(seen.items())
+
+
+def load_sweep(path: Path, recompute: bool = False, label: str | None = None) -> SweepResults:
+    """Read a sweep folder (see the module docstring for where metrics come from)."""
+    try:
+        manifest = json.loads((path / MANIFEST_FILE).read_text(encoding="utf-8"))
+    except (OSError, ValueError) as err:
+        raise ReportError(f"{path}: not a sweep folder (no readable {MANIFEST_FILE})") from err
+    base = _base(path)
+    records: list[RunRecord] = []
+    problems: list[tuple[str, str, str]] = []
+    stale = from_logs = 0
+    for result_path in sorted(path.rglob(RESULT_FILE)):
+        run_dir = result_path.parent
+        name = str(run_dir.relative_to(path))
+        result = json.loads(result_path.read_text(encoding="utf-8"))
+        status = str(result.get("status"))
+        spec = RunSpec.from_json(result["spec"])
+        if result.get("run_digest") != safe_run_digest(base, spec):
+            stale += 1
+        elif status != RunStatus.COMPLETED.value:
+            problems.append((name, status, _last_line(str(result.get("reason")))))
+        elif not (run_dir / LOG_FILE).exists():
+            problems.append((name, status, f"but its {LOG_FILE} is missing"))
+        else:
+            metrics, fresh = _metrics(run_dir, result, recompute)
+            from_logs += fresh
+            records.append(RunRecord(run_dir, spec, metrics))
+    config = str(manifest.get("config"))
+    return SweepResults(
+        path,
+        label or Path(config).name,
+        config,
+        tuple(records),
+        tuple(problems),
+        stale,
+        from_logs,
+    )
+
+
+def _last_line(text: str) -> str:
+    lines = text.strip().splitlines()
+    return lines[-1] if lines else ""
+
+
+def _base(path: Path) -> ScenarioFile:
+    source = str(path / SCENARIO_FILE)
+    try:
+        text = (path / SCENARIO_FILE).read_text(encoding="utf-8")
+    except OSError as err:
+        raise ReportError(f"{path}: not a sweep folder (no readable {SCENARIO_FILE})") from err
+    return from_mapping(ScenarioFile, parse_yaml(text, source), source)
+
+
+def _metrics(run_dir: Path, result: Mapping[str, object], recompute: bool) -> tuple[Metrics, bool]:
+    """(metrics, computed from the log now?): the cache when it matches the log."""
+    log = run_dir / LOG_FILE
+    cached = result.get("metrics")
+    size = log.stat().st_size if log.exists() else None
+    if (
+        not recompute
+        and isinstance(cached, dict)
+        and all(key in cached for key in METRIC_KEYS)  # else a cache of an older version
+        and size == result.get("log_size_bytes")
+    ):
+        return cached, False
+    return run_metrics(log), True
+
+
+# --------------------------------------------------------------------------------------------
+# Statistics
+
+
+@dataclass(frozen=True)
+class Stat:
+    n: int
+    mean: float
+    std: float  # sample std (ddof 1); NaN for one run
+
+
+def stat(values: Sequence[float]) -> Stat | None:
+    if not values:
+        return None
+    array = np.asarray(values, dtype=np.float64)
+    std = float(array.std(ddof=1)) if array.size > 1 else math.nan
+    return Stat(int(array.size), float(array.mean()), std)
+
+
+def metric_value(metrics: Metrics, key: str) -> float | None:
+    """A metric of one run; ``total_nmac`` = benign-benign + benign-spoofer (the paper's)."""
+    if key == "total_nmac":
+        bb, bs = metrics.get("nmac_benign_benign"), metrics.get("nmac_benign_spoofer")
+        return None if bb is None else float(bb) + float(bs or 0)
+    value = metrics.get(key)
+    return None if value is None else float(value)
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One (row, planner, density, variant): ours, published, difference."""
+
+    row: Row
+    planner: str
+    density: int
+    variant: str
+    runs: int  # completed runs of this (variant, planner, density)
+    ours: Stat | None
+    published: Stat | None
+
+    @property
+    def diff(self) -> float | None:
+        if self.ours is None or self.published is None:
+            return None
+        return self.ours.mean - self.published.mean
+
+    @property
+    def z(self) -> float | None:
+        if self.ours is None or self.published is None or self.ours.n < 2:
+            return None
+        var = self.ours.std**2 / self.ours.n + self.published.std**2 / self.published.n
+        return None if var <= 0.0 else (self.ours.mean - self.published.mean) / math.sqrt(var)
+
+
+def _published(key: str, planner: str, density: int) -> Stat | None:
+    value = PUBLISHED.get((key, planner), {}).get(density)
+    return None if value is None else Stat(PUBLISHED_RUNS, value[0], value[1])
+
+
+def summarise(sweeps: Sequence[SweepResults]) -> list[Cell]:
+    """Every cell of the report, in row, planner, variant, density order."""
+    groups: dict[tuple[str, str, int], list[RunRecord]] = {}
+    for sweep in sweeps:
+        labels = dict(sweep.variants())
+        for r in sweep.records:
+            groups.setdefault((labels[r.params], r.planner, r.density), []).append(r)
+    variants = list(dict.fromkeys(variant for variant, _, _ in groups))
+    planners = planner_order({planner for _, planner, _ in groups})
+    densities = sorted({density for _, _, density in groups})
+    cells = []
+    for row, planner, variant, density in itertools.product(ROWS, planners, variants, densities):
+        group = groups.get((variant, planner, density), [])
+        values = [v for r in group if (v := metric_value(r.metrics, row.key)) is not None]
+        published = _published(row.key, planner, density)
+        cells.append(Cell(row, planner, density, variant, len(group), stat(values), published))
+    return cells
+
+
+def planner_order(present: set[str]) -> list[str]:
+    return [p for p in _PLANNER_ORDER if p in present] + sorted(present - set(_PLANNER_ORDER))

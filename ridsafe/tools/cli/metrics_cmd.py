@@ -1,0 +1,76 @@
+"""``ridsafe metrics``: a run's metrics from its log, as a table or as JSON.
+
+``ridsafe metrics OUT/run.mcap`` prints one line per metric (``n/a`` where it does not
+apply); ``--json`` prints the dict of ``ridsafe.tools.analysis.metrics.compute_metrics`` (``null``
+where it does not apply). A file that cannot be read as a run log: message on stderr, exit 1.
+Definitions: the docstring of ``ridsafe.tools.analysis.metrics``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Mapping
+
+from ridsafe.common.errors import RidsafeError
+from ridsafe.tools.analysis.metrics import METRIC_KEYS, compute_metrics
+
+# metric -> (label, unit, format)
+_DISPLAY: dict[str, tuple[str, str, str]] = {
+    "nmac_benign_benign": ("NMAC benign-benign", "events", "d"),
+    "nmac_benign_spoofer": ("NMAC benign-spoofer", "events", "d"),
+    "unsafe_violations": ("unsafe-region entries", "events", "d"),
+    "containment_rate": ("containment rate (LCR)", "", ".3f"),
+    "rmse_m": ("spoofer RMSE", "m", ".1f"),
+    "mae_m": ("spoofer MAE", "m", ".1f"),
+    "max_ellipsoid_radius_m": ("max ellipsoid radius", "m", ".1f"),
+    "min_distance_to_spoofer_m": ("min distance to spoofer", "m", ".1f"),
+    "goal_reached_fraction": ("goal reached", "fraction", ".3f"),
+    "alert_time_s": ("first alert", "s", ".2f"),
+    "detection_delay_s": ("alert after 4 aircraft heard it", "s", ".2f"),
+    "false_alerts": ("false alerts", "alerts", "d"),
+    "wall_clock_s": ("wall clock", "s", ".1f"),
+    "gcs_compute_s": ("GCS compute", "s", ".2f"),
+    "gcs_update_p99_ms": ("GCS update p99", "ms", ".2f"),
+    "planner_decision_p99_ms": ("planner decision p99", "ms", ".2f"),
+}
+
+
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    parser = subparsers.add_parser(
+        "metrics",
+        help="compute a run's metrics from its MCAP log",
+        description="Compute NMACs, containment, localisation error and cost from a run log "
+        "(DESIGN.md section 7).",
+    )
+    parser.add_argument("log", help="the run log, e.g. OUT/run.mcap")
+    parser.add_argument("--json", action="store_true", help="print the metrics as JSON")
+    parser.set_defaults(func=run)
+
+
+def format_table(metrics: Mapping[str, float | int | None]) -> str:
+    """One aligned line per metric, in :data:`METRIC_KEYS` order."""
+    lines = []
+    for key in METRIC_KEYS:
+        label, unit, fmt = _DISPLAY[key]
+        value = metrics.get(key)
+        text = "n/a" if value is None else format(value, fmt)
+        lines.append(f"{label:<26} {text:>10}  {unit}".rstrip())
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        metrics = compute_metrics(args.log)
+    except (RidsafeError, OSError) as exc:
+        print(f"ridsafe metrics: {exc}", file=sys.stderr)
+        return 1
+    except (KeyError, TypeError, ValueError) as exc:
+        print(f"ridsafe metrics: {args.log}: malformed run log: {exc!r}", file=sys.stderr)
+        return 1
+    if args.json:
+        print(json.dumps(metrics, indent=2))
+    else:
+        print(format_table(metrics))
+    return 0

@@ -1,0 +1,161 @@
+"""``ridsafe run``: fly a whole scenario end to end, log it, print its metrics.
+
+live (default): the sim backend, the GCS and the companions run as separate processes over
+MAVLink/UDP on 127.0.0.1, in real time or ``--speed`` times faster. lockstep: the same cores
+and bytes in one process, advanced by one clock as fast as the CPU allows, deterministic for
+a seed. Both leave ``OUT/run.mcap`` and ``OUT/summary.json`` (the metrics, computed from the
+log).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+import sys
+import time
+from pathlib import Path
+from typing import NoReturn
+
+import yaml
+from tqdm import tqdm
+
+from ridsafe.common.config import to_mapping
+from ridsafe.common.errors import RidsafeError
+from ridsafe.companion.planners import PLANNERS
+from ridsafe.tools.analysis.metrics import compute_metrics
+from ridsafe.tools.cli import app_args
+from ridsafe.tools.run.live import run_live
+from ridsafe.tools.run.lockstep import run_lockstep
+from ridsafe.tools.run.scenario import ScenarioFile, with_aircraft
+
+
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    parser = subparsers.add_parser(
+        "run",
+        help="fly a whole scenario (sim, GCS, companions), log it to MCAP, print metrics",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    app_args.add_scenario_arguments(parser)
+    parser.add_argument("--out", type=Path, help="output folder (default out/run-<time>)")
+    parser.add_argument("--mode", choices=("live", "lockstep"), default="live")
+    parser.add_argument("--seed", type=int, help="scenario seed")
+    parser.add_argument("--speed", type=float, default=1.0, help="live: sim s per wall s")
+    parser.add_argument("--aircraft", type=int, help="number of benign aircraft (rescales)")
+    parser.add_argument("--planner", choices=sorted(PLANNERS), help="default: run.planner")
+    parser.add_argument("--duration", type=float, help="flight time (s), default the scenario's")
+    parser.add_argument("--json", action="store_true", help="print the metrics as JSON")
+    parser.set_defaults(func=run)
+
+
+def effective_scenario(args: argparse.Namespace) -> ScenarioFile:
+    """The scenario file with every command-line override applied."""
+    loaded = app_args.load_scenario_args(args)
+    changes: dict[str, object] = {}
+    if args.seed is not None:
+        changes["seed"] = args.seed
+    if args.duration is not None:
+        changes["duration_s"] = args.duration
+    if changes:
+        scenario = dataclasses.replace(loaded.scenario, **changes)  # type: ignore[arg-type]
+        loaded = dataclasses.replace(loaded, scenario=scenario)
+    if args.aircraft is not None:
+        loaded = with_aircraft(loaded, args.aircraft)
+    return loaded
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        loaded = effective_scenario(args)
+        planner = args.planner or loaded.run.planner
+        if planner not in PLANNERS:
+            raise ValueError(f"unknown planner {planner!r} (known: {', '.join(PLANNERS)})")
+        app_args.check_speed(args)
+    except (RidsafeError, ValueError, OSError) as exc:
+        print(f"ridsafe run: {exc}", file=sys.stderr)
+        return 2
+    out = args.out or Path("out") / time.strftime("run-%Y%m%d-%H%M%S")
+    out.mkdir(parents=True, exist_ok=True)
+    scenario_path = out / "scenario.yaml"
+    scenario_path.write_text(yaml.safe_dump(to_mapping(loaded), sort_keys=False))
+    n = len(loaded.scenario.aircraft)
+    spoofer = "1 spoofer" if loaded.scenario.spoofer is not None else "no spoofer"
+    print(
+        f"{loaded.scenario.name}: {n} aircraft + {spoofer}, {loaded.scenario.duration_s:g} s, "
+        f"seed {loaded.scenario.seed}, planner {planner}, {args.mode} -> {out}",
+        file=sys.stderr if args.json else sys.stdout,
+        flush=True,
+    )
+    if args.mode == "lockstep":
+        status, reason = _lockstep(loaded, planner, out)
+    else:
+        status, reason = _live(loaded, planner, out, scenario_path, args.speed)
+    return _report(out, status, reason, args.json)
+
+
+class _SimTimeBar:
+    """A progress bar (with ETA) over sim seconds, drawn from the first progress report."""
+
+    def __init__(self, duration_s: float) -> None:
+        self.total = round(duration_s)
+        self.bar: tqdm[NoReturn] | None = None
+
+    def __call__(self, now_s: float) -> None:
+        if self.bar is None:
+            self.bar = tqdm(total=self.total, unit="s", desc="sim time", leave=False, ncols=80)
+        done = min(math.floor(now_s), self.total)
+        if done > self.bar.n:
+            self.bar.update(done - self.bar.n)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _lockstep(loaded: ScenarioFile, planner: str, out: Path) -> tuple[str, str]:
+    bar = _SimTimeBar(loaded.scenario.duration_s)
+    try:
+        result = run_lockstep(loaded, planner, out / "run.mcap", bar)
+    finally:
+        bar.close()
+    return result.status, result.reason
+
+
+def _live(
+    loaded: ScenarioFile, planner: str, out: Path, scenario_path: Path, speed: float
+) -> tuple[str, str]:
+    print("compiled kernels: ", end="", file=sys.stderr, flush=True)
+
+    def warm(warm_s: float) -> None:
+        print(f"ready in {warm_s:.1f} s", file=sys.stderr, flush=True)
+
+    bar = _SimTimeBar(loaded.scenario.duration_s)
+    try:
+        outcome = run_live(loaded, planner, out, scenario_path, speed, bar, warm)
+    finally:
+        bar.close()
+    for note in outcome.notes:
+        print(f"note: {note}", file=sys.stderr)
+    return outcome.status, outcome.reason
+
+
+def _report(out: Path, status: str, reason: str, as_json: bool) -> int:
+    log = out / "run.mcap"
+    try:
+        metrics = compute_metrics(log)
+    except RidsafeError as exc:
+        print(f"ridsafe run: no metrics: {exc}", file=sys.stderr)
+        return 1
+    summary = {"status": status, "reason": reason, "log": str(log), "metrics": metrics}
+    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    if as_json:
+        print(json.dumps(summary, indent=2))
+    else:
+        print(f"run {status}{': ' + reason if reason else ''}; log {log}")
+        for key, value in metrics.items():
+            text = "n/a" if value is None else f"{value:.4g}" if isinstance(value, float) else value
+            print(f"  {key:28s} {text}")
+        print(f"metrics in {out / 'summary.json'}")
+    return 0 if status == "completed" else 1

@@ -1,0 +1,155 @@
+"""Lockstep runs: every core of a scenario in one process, advanced by one clock.
+
+The sim backend, one companion per benign aircraft and the GCS exchange the same MAVLink
+bytes they exchange over UDP, through ``ByteRouter`` in a fixed order (sim, companions in
+system-id order, GCS), every ``run.lockstep_tick_s`` of sim time, as fast as the CPU allows.
+Randomness comes only from the scenario seed and the signing key is derived from it, so the
+same scenario and seed give the same log content.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from ridsafe.common import codec, topics
+from ridsafe.common.logsink import LogSink, NullSink
+from ridsafe.common.router import ByteRouter, Wire
+from ridsafe.common.shell import SansIoCore
+from ridsafe.companion.companion import Companion
+from ridsafe.gcs.gcs import Gcs, peer_endpoint
+from ridsafe.sim_backend.world import EndpointKind, SimBackend, endpoint_name
+from ridsafe.tools.run import cores, process, run_records
+from ridsafe.tools.run.scenario import ScenarioFile
+
+logger = logging.getLogger(__name__)
+
+SIM = "sim"
+GCS = "gcs"
+
+
+def companion_core(sysid: int) -> str:
+    return f"companion/{sysid}"
+
+
+def lockstep_peer(sysid: int) -> str:
+    """The GCS's name for companion ``sysid``'s link in a lockstep run."""
+    return f"c{sysid}"
+
+
+@dataclass
+class Lockstep:
+    """The cores of one lockstep run and the router between them."""
+
+    sim: SimBackend
+    companions: dict[int, Companion]
+    gcs: Gcs
+    router: ByteRouter
+    tick_s: float
+    ticks: int = 0
+
+    @property
+    def t_s(self) -> float:
+        return self.ticks * self.tick_s
+
+    def step(self) -> float:
+        self.ticks += 1
+        now_s = self.ticks * self.tick_s  # whole ticks: no drift
+        self.router.step(now_s)
+        return now_s
+
+    def finish(self) -> None:
+        for companion in self.companions.values():
+            companion.finish(self.t_s)
+        self.gcs.finish(self.t_s)
+
+
+def lockstep_signing(loaded: ScenarioFile) -> codec.SigningConfig | None:
+    """A key derived from the seed (a lockstep run must be bit-reproducible; it never leaves
+    the process) and a fixed first timestamp."""
+    if not loaded.run.sign_gcs_links:
+        return None
+    key = hashlib.sha256(f"ridsafe-lockstep-{loaded.scenario.seed}".encode()).digest()
+    return codec.SigningConfig(key, codec.signing_timestamp_from_unix(loaded.scenario.start_unix_s))
+
+
+def build(loaded: ScenarioFile, planner: str, sink: LogSink) -> Lockstep:
+    """The scenario's cores, built by the factory (``run.cores``), connected for lockstep."""
+    signing = lockstep_signing(loaded)
+    sim = cores.make_sim_backend(loaded, sink, cores.LOCKSTEP_SIM_ENDPOINTS)
+    companions = cores.make_companions(loaded, cores.companion_ids(loaded), planner, sink, signing)
+    gcs = cores.make_gcs(loaded, sink, signing)
+    return connect(sim, companions, gcs, loaded.run.lockstep_tick_s)
+
+
+def connect(sim: SimBackend, companions: dict[int, Companion], gcs: Gcs, tick_s: float) -> Lockstep:
+    """Wire built cores: each companion to its vehicle's companion port and to the GCS."""
+    by_name: dict[str, SansIoCore] = {SIM: sim, GCS: gcs}
+    wires = []
+    for sysid, companion in companions.items():
+        by_name[companion_core(sysid)] = companion
+        autopilot_port = (SIM, endpoint_name(sysid, EndpointKind.COMPANION))
+        wires.append(Wire(autopilot_port, (companion_core(sysid), "autopilot")))
+        gcs_port = (GCS, peer_endpoint(lockstep_peer(sysid)))
+        wires.append(Wire(gcs_port, (companion_core(sysid), "gcs")))
+    order = [SIM, *(companion_core(sysid) for sysid in companions), GCS]
+    router = ByteRouter(by_name, wires, order)
+    return Lockstep(sim, companions, gcs, router, tick_s)
+
+
+def warm_up(loaded: ScenarioFile, planner: str) -> float:
+    """Build the scenario's cores once and advance them one tick, logging nothing, so every
+    numba kernel a run uses is compiled into (or loaded from) the cache; returns the wall
+    time (s). A live run calls this before it starts its processes: after an install they
+    would otherwise each compile the same kernels (~30 s on 2 cores) while the clock runs."""
+    wall_start = time.perf_counter()
+    build(loaded, planner, NullSink()).step()
+    return time.perf_counter() - wall_start
+
+
+@dataclass(frozen=True)
+class RunResult:
+    status: str
+    reason: str
+    wall_clock_s: float
+    sim_time_s: float
+    log_path: Path
+    build_s: float = 0.0  # of wall_clock_s: building the cores (kernels loaded) before t = 0
+
+
+def run_lockstep(
+    loaded: ScenarioFile,
+    planner: str,
+    log_path: Path,
+    on_progress: Callable[[float], None] | None = None,
+    recorder_process: bool = True,
+) -> RunResult:
+    """Fly the scenario for its duration, logging to ``log_path``; Ctrl-C ends it early
+    with a valid log. ``recorder_process``: write the log from a child process (on the other
+    core; the same file), else from this one (a sweep's workers already use every core)."""
+    wall_start = time.perf_counter()
+    status, reason = "completed", ""
+    foxglove = loaded.run.foxglove_channels
+    origin = loaded.scenario.origin
+    log = process.open_run_log(log_path, origin, foxglove, child_process=recorder_process)
+    with log as recorder:
+        run_records.log_meta(recorder, run_records.run_meta(loaded, "lockstep", planner))
+        build_start = time.perf_counter()
+        run = build(loaded, planner, recorder)
+        build_s = time.perf_counter() - build_start
+        duration = loaded.scenario.duration_s
+        try:
+            while run.t_s < duration - 1e-9:
+                now_s = run.step()
+                if on_progress is not None:
+                    on_progress(now_s)
+        except KeyboardInterrupt:
+            status, reason = "interrupted", "Ctrl-C"
+        run.finish()
+        wall = time.perf_counter() - wall_start
+        recorder.log(topics.RUN_END, run.t_s, run_records.run_end(wall, run.t_s, status, reason))
+    return RunResult(status, reason, wall, run.t_s, log_path, build_s)

@@ -1,0 +1,361 @@
+"""Writing a run log: one MCAP file of JSON records per process, plus derived channels.
+
+The run log's side of ``mcap``: this module, the reader and the part merge are the only ones
+that import it.
+
+:class:`McapRecorder` is the ``LogSink`` of a real run. Each topic gets one channel (message
+encoding ``json``, schema encoding ``jsonschema``, schema ``topics.schema(topic)``; a topic
+missing from ``topics.TOPICS`` gets a permissive schema and one warning). Log and publish time
+are the sim time in integer nanoseconds, and the record is stored with ``t_s`` added as its
+first field (unless the writer put one there itself). Chunks are small (256 KiB, zstd) and the
+recorder also closes the open chunk every ``flush_every_s`` of sim time, so a crash loses at
+most one chunk: a file cut off before ``close()`` stays readable up to its last complete chunk
+(``ridsafe.tools.runlog.reader``).
+
+Non-finite numbers. JSON has no NaN or infinity, and a run must not die because one estimate
+went NaN, so the recorder writes them as ``null``, counts them per (topic, field path)
+(``nonfinite_counts``, e.g. ``{"/truth/vehicles:p_enu_m[][]": 3}``), warns once per field
+path, and stores the counts in the file's ``ridsafe.recorder`` metadata record on close.
+Readers see ``None``; ``numpy.array(values, dtype=float)`` turns it back into NaN. A value
+JSON cannot encode at all (a set, an object) raises :class:`RecorderError` naming the topic
+and field. numpy scalars and arrays are accepted and converted (``.item()``/``.tolist()``).
+
+Derived channels. A :class:`WriterPlugin` sees the records of the topics it names as they are
+logged and writes channels of its own through :class:`DerivedChannels` (after the record that
+caused them). The Foxglove views (``ridsafe.tools.runlog.foxglove_channels``) are one; an
+error in a plug-in costs its view of that record (one warning per topic), never the record.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import os
+from collections.abc import Collection, Mapping, Sequence
+from pathlib import Path
+from typing import IO, Any, Protocol
+
+import numpy as np
+from mcap.writer import CompressionType, Writer
+
+from ridsafe.common import topics
+from ridsafe.common.errors import RidsafeError
+from ridsafe.common.logsink import Record
+
+__all__ = [
+    "DEFAULT_CHUNK_SIZE",
+    "DEFAULT_FLUSH_EVERY_S",
+    "JSON_ENCODING",
+    "DerivedChannels",
+    "McapRecorder",
+    "RecorderError",
+    "WriterPlugin",
+]
+
+logger = logging.getLogger(__name__)
+
+DEFAULT_CHUNK_SIZE = 256 * 1024
+DEFAULT_FLUSH_EVERY_S = 5.0
+METADATA_NAME = "ridsafe.recorder"
+JSON_ENCODING = "json"
+_JSONSCHEMA = "jsonschema"
+LIBRARY = "ridsafe.tools.runlog (mcap-python)"
+
+
+class RecorderError(RidsafeError):
+    """The recorder cannot write what it was given (or was used after ``close()``)."""
+
+
+class DerivedChannels(Protocol):
+    """What a plug-in writes through: one message on a derived channel."""
+
+    def write_derived(
+        self, topic: str, schema_name: str, schema: Mapping[str, Any], t_s: float, message: Any
+    ) -> None:
+        """``message`` (a JSON-able dict, or JSON text already encoded) on ``topic`` at sim
+        time ``t_s``; the channel is registered with ``schema`` on its first message."""
+        ...
+
+
+class WriterPlugin(Protocol):
+    """Derives channels from the records of ``topics`` as the recorder writes them."""
+
+    @property
+    def topics(self) -> Collection[str]: ...
+
+    def on_record(self, topic: str, t_s: float, record: Record, out: DerivedChannels) -> None:
+        """Called after ``record`` is written; may write derived messages to ``out``."""
+        ...
+
+
+# --------------------------------------------------------------------------------------------
+# JSON encoding
+
+
+def _to_plain(value: Any) -> Any:
+    """``default`` hook of the encoder: numpy and non-dict mappings; anything else fails."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, Mapping):
+        return dict(value)
+    if isinstance(value, tuple):
+        return list(value)
+    raise TypeError(f"{type(value).__name__} is not JSON-serialisable")
+
+
+# One encoder, built once: json.dumps with non-default options builds a new one per call.
+_ENCODER = json.JSONEncoder(separators=(",", ":"), allow_nan=False, default=_to_plain)
+
+
+def _sanitise(value: Any, path: str, found: list[str]) -> Any:
+    """A copy of ``value`` with non-finite floats replaced by None; their paths go to found.
+
+    Paths name fields with dots and list levels with ``[]``: ``items[].rssi_dbm``.
+    """
+    if isinstance(value, float | np.floating):
+        if math.isfinite(value):
+            return value
+        found.append(path)
+        return None
+    if isinstance(value, Mapping):
+        return {k: _sanitise(v, f"{path}.{k}" if path else str(k), found) for k, v in value.items()}
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, list | tuple):
+        return [_sanitise(v, f"{path}[]", found) for v in value]
+    return value
+
+
+def _unserialisable_path(value: Any, path: str = "") -> str:
+    """The path of the first value JSON cannot encode (for error messages), or ""."""
+    children: list[tuple[str, Any]]
+    if isinstance(value, Mapping):
+        bad_keys = [k for k in value if not isinstance(k, _JSON_KEYS) and k is not None]
+        if bad_keys:
+            return f"{path}{{key {bad_keys[0]!r}}}"
+        children = [(f"{path}.{k}" if path else str(k), v) for k, v in value.items()]
+    elif isinstance(value, list | tuple):
+        children = [(f"{path}[{k}]", v) for k, v in enumerate(value)]
+    elif value is None or isinstance(value, _JSON_SCALARS):
+        return ""
+    else:
+        return f"{path or '<record>'} ({type(value).__name__})"
+    for child_path, child in children:
+        found = _unserialisable_path(child, child_path)
+        if found:
+            return found
+    return ""
+
+
+_JSON_KEYS = (str, int, float, bool)
+_JSON_SCALARS = (str, int, float, np.generic, np.ndarray)
+
+
+# --------------------------------------------------------------------------------------------
+# Writing
+
+
+class McapRecorder:
+    """Writes one process's log records to an MCAP file (see the module docstring).
+
+    ``chunk_size``: bytes of uncompressed records per chunk (what a crash can lose at most,
+    together with ``flush_every_s``: the open chunk is closed whenever sim time has advanced
+    that far since the last flush; None: only when full). ``plugins``: what derives channels
+    from the records (e.g. ``foxglove_channels.FoxgloveChannels``), each called in this order.
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        *,
+        chunk_size: int = DEFAULT_CHUNK_SIZE,
+        flush_every_s: float | None = DEFAULT_FLUSH_EVERY_S,
+        plugins: Sequence[WriterPlugin] = (),
+    ) -> None:
+        if chunk_size <= 0:
+            raise ValueError(f"chunk_size must be > 0, got {chunk_size}")
+        if flush_every_s is not None and not flush_every_s > 0.0:
+            raise ValueError(f"flush_every_s must be > 0 or None, got {flush_every_s}")
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._stream = _WriteThrough(self.path)
+        self._writer = Writer(self._stream, chunk_size=chunk_size, compression=CompressionType.ZSTD)
+        self._writer.start(profile="", library=LIBRARY)
+        self._closed = False
+        self._channel_ids: dict[str, int] = {}
+        self._schema_ids: dict[str, int] = {}
+        self._warned: set[str] = set()
+        self._nonfinite: dict[str, int] = {}
+        self.message_count = 0
+        self._flush_every_s = flush_every_s
+        self._next_flush_s = flush_every_s if flush_every_s is not None else math.inf
+        self._plugins_by_topic: dict[str, list[WriterPlugin]] = {}
+        for plugin in plugins:
+            for topic in plugin.topics:
+                self._plugins_by_topic.setdefault(topic, []).append(plugin)
+
+    # -- LogSink ------------------------------------------------------------------------------
+
+    def log(self, topic: str, t_s: float, record: Record) -> None:
+        """Write ``record`` on ``topic`` at sim time ``t_s`` (s, finite, >= 0)."""
+        if self._closed:
+            raise RecorderError(f"{topic}: log() after close() of {self.path}")
+        channel_id = self._channel_ids.get(topic)
+        if channel_id is None:
+            channel_id = self._open_topic(topic, record)
+        log_time = _log_time_ns(topic, t_s)
+        data = self._encode(topic, t_s, record)
+        self._writer.add_message(channel_id, log_time, data, log_time)
+        self.message_count += 1
+        plugins = self._plugins_by_topic.get(topic)
+        if plugins is not None:
+            self._run_plugins(topic, plugins, t_s, record)
+        if t_s >= self._next_flush_s:
+            self.flush()
+            assert self._flush_every_s is not None
+            self._next_flush_s = t_s + self._flush_every_s
+
+    @property
+    def nonfinite_counts(self) -> Mapping[str, int]:
+        """``"topic:field path"`` -> how many non-finite numbers were written as null."""
+        return dict(self._nonfinite)
+
+    def flush(self) -> None:
+        """Close the open chunk and push everything written so far to the file."""
+        if self._closed:
+            return
+        # Writer.flush (mcap-python 1.6 has it) closes the open chunk; without it, chunks
+        # reach the file only when full.
+        flush = getattr(self._writer, "flush", None)
+        if flush is not None:
+            flush()
+        self._stream.flush()
+
+    def close(self) -> None:
+        """Finish the file (summary, footer). Safe to call twice."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            counts = json.dumps(self._nonfinite, sort_keys=True)
+            self._writer.add_metadata(
+                METADATA_NAME, {"messages": str(self.message_count), "nonfinite_nulled": counts}
+            )
+            self._writer.finish()
+        finally:
+            self._stream.close()
+
+    def __enter__(self) -> McapRecorder:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    # -- channels and encoding ----------------------------------------------------------------
+
+    def _open_topic(self, topic: str, record: Record) -> int:
+        if topic in topics.TOPICS:
+            schema = topics.schema(topic)
+            missing = [name for name in schema["required"] if name not in record]
+            if missing:
+                logger.warning("%s: first record lacks required fields %s", topic, missing)
+        else:
+            logger.warning("%s: not in ridsafe.common.topics.TOPICS; permissive schema", topic)
+            schema = {"title": topic, "type": "object"}
+        return self._register(topic, topic, schema)
+
+    def _register(self, topic: str, schema_name: str, schema: Mapping[str, Any]) -> int:
+        schema_id = self._schema_ids.get(schema_name)
+        if schema_id is None:
+            data = json.dumps(schema, separators=(",", ":")).encode()
+            schema_id = self._writer.register_schema(schema_name, _JSONSCHEMA, data)
+            self._schema_ids[schema_name] = schema_id
+        channel_id: int = self._writer.register_channel(topic, JSON_ENCODING, schema_id)
+        self._channel_ids[topic] = channel_id
+        return channel_id
+
+    def _encode(self, topic: str, t_s: float, record: Record) -> bytes:
+        try:
+            body = _ENCODER.encode(record)
+        except ValueError:  # non-finite float (allow_nan=False)
+            body = _ENCODER.encode(self._nulled(topic, record))
+        except TypeError as exc:
+            where = _unserialisable_path(record)
+            raise RecorderError(f"{topic}: field {where} cannot be written as JSON") from exc
+        if "t_s" in record:
+            return body.encode()
+        head = '{"t_s":' + repr(float(t_s))
+        return (head + "}" if body == "{}" else head + "," + body[1:]).encode()
+
+    def _nulled(self, topic: str, record: Record) -> Any:
+        found: list[str] = []
+        clean = _sanitise(record, "", found)
+        for path in found:
+            key = f"{topic}:{path}"
+            if key not in self._nonfinite:
+                logger.warning("%s: non-finite number written as null (counted)", key)
+                self._nonfinite[key] = 0
+            self._nonfinite[key] += 1
+        return clean
+
+    # -- derived channels (plug-ins) -------------------------------------------------------
+
+    def _run_plugins(
+        self, topic: str, plugins: list[WriterPlugin], t_s: float, record: Record
+    ) -> None:
+        for plugin in plugins:
+            try:
+                plugin.on_record(topic, t_s, record, self)
+            except (KeyError, TypeError, ValueError, IndexError) as exc:
+                if topic not in self._warned:
+                    self._warned.add(topic)
+                    logger.warning("%s: no derived view of this record (%r); skipped", topic, exc)
+
+    def write_derived(
+        self, topic: str, schema_name: str, schema: Mapping[str, Any], t_s: float, message: Any
+    ) -> None:
+        """A plug-in's message (a dict, or JSON text already encoded): see ``DerivedChannels``."""
+        channel_id = self._channel_ids.get(topic)
+        if channel_id is None:
+            channel_id = self._register(topic, schema_name, schema)
+        log_time = _log_time_ns(topic, t_s)
+        text = message if isinstance(message, str) else _ENCODER.encode(message)
+        self._writer.add_message(channel_id, log_time, text.encode(), log_time)
+        self.message_count += 1
+
+
+class _WriteThrough:
+    """An unbuffered output file for the mcap writer.
+
+    The writer keeps the open chunk in memory and writes whole records; a buffered file
+    would hold a finished chunk (and even the header) in user space, where a crash loses it.
+    (Not an ``io.RawIOBase``: the writer would wrap one in a ``BufferedWriter``.)
+    """
+
+    def __init__(self, path: Path) -> None:
+        self._file: IO[bytes] = open(path, "wb", buffering=0)  # noqa: SIM115 (close())
+
+    def write(self, data: bytes) -> int:
+        view = memoryview(data)
+        while view:
+            written = self._file.write(view)
+            view = view[written:]
+        return len(data)
+
+    def tell(self) -> int:
+        return self._file.tell()
+
+    def flush(self) -> None:
+        self._file.flush()
+
+    def close(self) -> None:
+        self._file.close()
+
+
+def _log_time_ns(topic: str, t_s: float) -> int:
+    if not 0.0 <= t_s < math.inf:
+        raise RecorderError(f"{topic}: sim time must be finite and >= 0, got {t_s!r}")
+    return round(t_s * 1e9)

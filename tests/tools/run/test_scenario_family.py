@@ -1,0 +1,98 @@
+"""The scenario family: matched seeds, valid geometry, the spoofer crossing the traffic."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from ridsafe.tools.run.scenario import load_scenario_file
+from ridsafe.tools.run.scenario_family import (
+    FamilyConfig,
+    _nominal_encounters,
+    _nominal_flight,
+    generate,
+)
+
+BASE = load_scenario_file().scenario
+FAMILY = FamilyConfig()
+
+
+def test_same_seed_same_scenario_and_densities_share_their_first_aircraft() -> None:
+    a16 = generate(BASE, 16, 7, FAMILY)
+    assert generate(BASE, 16, 7, FAMILY) == a16
+    a8 = generate(BASE, 8, 7, FAMILY)
+    assert a8.aircraft == a16.aircraft[:8]
+    assert generate(BASE, 16, 8, FAMILY).aircraft != a16.aircraft
+
+
+def test_geometry_depots_trips_departures_and_serials() -> None:
+    for seed in range(20):
+        s = generate(BASE, 16, seed, FAMILY)
+        assert len({a.serial for a in s.aircraft}) == 16
+        for k, a in enumerate(s.aircraft):
+            depot = np.array(FAMILY.depots_enu_m[k % 3])
+            assert np.hypot(*(np.array(a.start_enu_m) - depot)[:2]) <= 2 * FAMILY.pad_spacing_m
+            trip = math.dist(a.start_enu_m[:2], a.goal_enu_m[:2])
+            pad = 2 * FAMILY.pad_spacing_m  # trips are drawn from the depot, flown from a pad
+            assert FAMILY.min_trip_m - pad <= trip <= FAMILY.max_trip_m + pad
+            assert all(abs(c) <= FAMILY.half_width_m for c in a.goal_enu_m[:2])
+            assert a.departure_s == (k // 3) * FAMILY.launch_interval_s
+            assert a.cruise_alt_m in FAMILY.cruise_alts_m
+
+
+def test_pads_of_a_depot_stand_further_apart_than_the_nmac_radius() -> None:
+    starts = np.array([a.start_enu_m for a in generate(BASE, 30, 0, FAMILY).aircraft])
+    for depot in range(3):
+        pads = starts[depot::3]
+        gaps = np.linalg.norm(pads[:, None, :] - pads[None, :, :], axis=-1)
+        assert (
+            gaps[~np.eye(len(pads), dtype=bool)].min() >= FAMILY.pad_spacing_m - 0.01
+        )  # mm rounding
+
+
+def test_spoofer_crosses_the_area_near_its_centre() -> None:
+    for seed in range(20):
+        spoofer = generate(BASE, 4, seed, FAMILY).spoofer
+        assert spoofer is not None
+        start, goal = np.array(spoofer.start_enu_m), np.array(spoofer.goal_enu_m)
+        direction = (goal - start) / np.linalg.norm(goal - start)
+        closest = start + direction * np.dot(-start, direction)  # point nearest the centre
+        assert np.hypot(*closest[:2]) <= FAMILY.spoofer_through_radius_m + 1e-6
+        assert np.linalg.norm(goal - start) >= 2 * FAMILY.half_width_m
+        assert spoofer.offset_enu_m == (50.0, 50.0, 0.0)
+
+
+def test_the_spoofer_aims_at_the_traffic_and_leaves_the_aircraft_alone() -> None:
+    random_line = dataclasses.replace(FAMILY, spoofer_candidate_lines=1)
+    aimed_met, random_met = 0, 0
+    for seed in range(20):
+        aimed, plain = generate(BASE, 16, seed, FAMILY), generate(BASE, 16, seed, random_line)
+        assert aimed.aircraft == plain.aircraft
+        assert aimed.spoofer is not None and plain.spoofer is not None
+        met = _nominal_encounters(aimed.aircraft, aimed.spoofer, 120.0, FAMILY)
+        met_random = _nominal_encounters(plain.aircraft, plain.spoofer, 120.0, FAMILY)
+        assert met >= met_random  # the random line is the first candidate
+        aimed_met, random_met = aimed_met + met, random_met + met_random
+    assert aimed_met >= 1.5 * random_met > 0
+
+
+def test_nominal_flight_climbs_cruises_and_lands_on_its_goal() -> None:
+    a = generate(BASE, 1, 0, FAMILY).aircraft[0]
+    t_s = np.arange(0.0, 200.0, 0.5)
+    enu = _nominal_flight(a, t_s, FAMILY)
+    assert np.allclose(enu[0], [*a.start_enu_m[:2], 0.0])
+    assert np.allclose(enu[-1], [*a.goal_enu_m[:2], 0.0])
+    assert enu[:, 2].max() == a.cruise_alt_m
+    speed = np.linalg.norm(np.diff(enu[:, :2], axis=0), axis=1) / 0.5
+    assert speed.max() <= FAMILY.nominal_speed_m_s + 1e-9
+
+
+def test_paper_mode_flies_the_same_scenarios_as_paper() -> None:
+    """The side-by-side report compares the two configs: same family, same placeholders."""
+    paper, paper_mode = (load_scenario_file(f"configs/{n}.yaml") for n in ("paper", "paper_mode"))
+    assert paper_mode.family == paper.family
+    assert paper_mode.scenario.aircraft == paper.scenario.aircraft
+    assert paper_mode.scenario.spoofer == paper.scenario.spoofer
+    assert paper_mode.scenario.radio == paper.scenario.radio
