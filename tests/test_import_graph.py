@@ -62,6 +62,10 @@ def imported(path: Path, known: set[str]) -> set[str]:
         parts = target.split(".")
         found.update(p for k in range(1, len(parts) + 1) if (p := ".".join(parts[:k])) in known)
     found.discard(name)
+    # Python loads a module's own packages before the module; a submodule naming its package's
+    # sibling (``pkg.a`` imports ``pkg.b``) does not make it depend on ``pkg/__init__``.
+    parts = name.split(".")
+    found.difference_update(".".join(parts[:k]) for k in range(1, len(parts)))
     return found
 
 
@@ -108,7 +112,8 @@ def test_every_package_folder_is_a_package() -> None:
 def test_imports_resolve_to_modules_and_their_packages() -> None:
     edges = graph("ridsafe")
     assert "ridsafe.tools.run.cores" in edges["ridsafe.tools.run.lockstep"]
-    assert "ridsafe.tools.run" in edges["ridsafe.tools.run.lockstep"]  # the package runs first
+    assert "ridsafe.common" in edges["ridsafe.tools.run.lockstep"]  # another package runs first
+    assert "ridsafe.tools.run" not in edges["ridsafe.tools.run.lockstep"]  # its own: by Python
     assert "ridsafe.tools.cli.entry_point" in edges["ridsafe.tools.cli"]
 
 
