@@ -1,15 +1,16 @@
-"""Benchmark: how many times faster than real time a lockstep run flies 16 benign aircraft and
-the spoofer for 120 s (sim backend, 16 companions, GCS and recorder, every MAVLink byte).
+"""Benchmark: how many times faster than real time a lockstep run flies N benign aircraft and
+the spoofer for 120 s (sim backend, N companions, GCS and recorder, every MAVLink byte), for
+the planners people fly (aware first) at 16 and 64 aircraft.
 
-    python bench/bench_lockstep.py [--planner straight-line|aware|trust-rid] [--aircraft 16]
-                                   [--repeat 3] [--tick S]
+    python bench/bench_lockstep.py [--planners aware,trust-rid] [--aircraft 16,64]
+                                   [--repeat 3] [--tick S] [--duration S]
 
 Each repetition is a fresh Python process timing one ``run_lockstep`` call, as
 ``ridsafe run --mode lockstep`` makes it: building the cores (the numba kernels load from
 their cache), the flight, and the log written and closed (by the recorder's own process).
 Interpreter start and imports are not counted. The machine is shared, so one run can be
 10 % off; the verdict uses the median of the repetitions.
-Target (issue): >= 20x real time on the 2-core development machine.
+Targets (scale issue), 2-core development machine: 16 + 1 >= 25x, 64 + 1 >= 8x real time.
 """
 
 from __future__ import annotations
@@ -31,61 +32,83 @@ import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-TARGET_SPEEDUP = 20.0
+#: Speed-up targets by fleet size (aircraft + the spoofer), from the scale issue.
+TARGET_SPEEDUP_BY_AIRCRAFT = {16: 25.0, 64: 8.0}
+
+
+def _int_list(text: str) -> list[int]:
+    return [int(part) for part in text.split(",") if part]
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--planner", default="straight-line")
-    parser.add_argument("--aircraft", type=int, default=16)
+    parser.add_argument("--planners", default="aware,trust-rid", help="comma list, in order")
+    parser.add_argument("--aircraft", type=_int_list, default=[16, 64], help="comma list")
     parser.add_argument("--duration", type=float, default=120.0)
     parser.add_argument("--tick", type=float, help="lockstep tick (s), default the config's")
     parser.add_argument("--repeat", type=int, default=3, help="fresh processes, one run each")
     parser.add_argument("--once", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--planner", help=argparse.SUPPRESS)  # one cell, for --once
     args = parser.parse_args()
     if args.once:
-        print(json.dumps(_one_run(args)))
+        print(json.dumps(_one_run(args, args.planner, args.aircraft[0])))
         return
     if args.repeat < 1:
-        parser.error("--repeat must be >= 1")
-    argv = [sys.executable, __file__, "--once", *sys.argv[1:]]
+        parser.error("--repeat: must be >= 1")
+    rows = []
+    for n in args.aircraft:
+        for planner in (p for p in args.planners.split(",") if p):
+            rows.append(_cell(args, planner, n))
+    print(
+        "\n| planner | aircraft | wall clock (median, s) | speed-up | target | GCS compute (s) "
+        "| planner p99 (ms) |"
+    )
+    print("|---|---|---|---|---|---|---|")
+    for row in rows:
+        print(row)
+
+
+def _cell(args: argparse.Namespace, planner: str, n_aircraft: int) -> str:
+    """``args.repeat`` fresh processes of one (planner, N); the cell's table row."""
+    base = [sys.executable, __file__, "--once", "--planner", planner, "--aircraft", str(n_aircraft)]
+    base += ["--duration", str(args.duration)]
+    if args.tick is not None:
+        base += ["--tick", str(args.tick)]
     runs = []
     for k in range(args.repeat):
-        done = subprocess.run(argv, capture_output=True, text=True, check=True)
+        done = subprocess.run(base, capture_output=True, text=True, check=True)
         runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
         run = runs[-1]
         print(
-            f"  run {k + 1}/{args.repeat}: wall clock {run['wall_s']:6.2f} s "
-            f"(cores built in {run['build_s']:.2f} s), "
+            f"  {planner:>13s} {n_aircraft:3d} + 1, run {k + 1}/{args.repeat}: wall clock "
+            f"{run['wall_s']:6.2f} s (cores built in {run['build_s']:.2f} s), "
             f"{run['sim_s'] / run['wall_s']:5.1f}x real time",
             flush=True,
         )
-    last = runs[-1]
     walls = [run["wall_s"] for run in runs]
     median = statistics.median(walls)
+    last = runs[-1]
     speedup = last["sim_s"] / median
-    print(
-        f"lockstep, {args.aircraft} aircraft + spoofer, {last['sim_s']:.0f} s sim, "
-        f"tick {last['tick_s'] * 1000:.0f} ms, planner {args.planner}, {len(runs)} runs"
+    target = TARGET_SPEEDUP_BY_AIRCRAFT.get(n_aircraft)
+    verdict = (
+        "-" if target is None else f">= {target:g}x: {'met' if speedup >= target else 'NOT met'}"
     )
-    spread = f"median; min {min(walls):.2f}, max {max(walls):.2f}"
-    print(f"  wall clock        {median:8.2f} s   ({spread})")
-    verdict = "met" if speedup >= TARGET_SPEEDUP else "NOT met"
-    target = f"target >= {TARGET_SPEEDUP:g}x: {verdict}"
-    print(f"  speed-up          {speedup:8.1f}x real time   ({target})")
-    print(f"  GCS compute       {last['gcs_compute_s']:8.2f} s")
     p99 = last["planner_p99_ms"]
-    if p99 is not None:
-        print(f"  planner p99       {p99:8.2f} ms per decision")
+    p99_text = "-" if p99 is None else f"{p99:.2f}"
+    return (
+        f"| {planner} | {n_aircraft} + 1 "
+        f"| {median:.2f} (min {min(walls):.2f}, max {max(walls):.2f}) "
+        f"| {speedup:.1f}x | {verdict} | {last['gcs_compute_s']:.2f} | {p99_text} |"
+    )
 
 
-def _one_run(args: argparse.Namespace) -> dict[str, float | None]:
+def _one_run(args: argparse.Namespace, planner: str, n_aircraft: int) -> dict[str, float | None]:
     from ridsafe.tools.analysis.metrics import compute_metrics  # noqa: PLC0415 (not timed)
     from ridsafe.tools.run import lockstep  # noqa: PLC0415
     from ridsafe.tools.run.scenario import load_scenario_file, with_aircraft  # noqa: PLC0415
 
     logging.basicConfig(level=logging.ERROR)
-    loaded = with_aircraft(load_scenario_file(), args.aircraft)
+    loaded = with_aircraft(load_scenario_file(), n_aircraft)
     loaded = dataclasses.replace(
         loaded, scenario=dataclasses.replace(loaded.scenario, duration_s=args.duration)
     )
@@ -95,7 +118,7 @@ def _one_run(args: argparse.Namespace) -> dict[str, float | None]:
         )
     with tempfile.TemporaryDirectory() as tmp:
         start = time.perf_counter()
-        result = lockstep.run_lockstep(loaded, args.planner, Path(tmp) / "run.mcap")
+        result = lockstep.run_lockstep(loaded, planner, Path(tmp) / "run.mcap")
         wall = time.perf_counter() - start
         metrics = compute_metrics(result.log_path)
     return {
