@@ -72,7 +72,7 @@ def body_z_axis(euler_rad: FloatArray) -> FloatArray:
     """``(N, 3)`` body z axes in the world frame from ``(N, 3)`` (roll, pitch, yaw), Z-Y-X
     rotation body -> world: the third column of Rz(yaw) Ry(pitch) Rx(roll)."""
     phi, theta, psi = euler_rad[:, 0], euler_rad[:, 1], euler_rad[:, 2]
-    return np.stack(
+    axes: FloatArray = np.stack(
         (
             np.cos(psi) * np.sin(theta) * np.cos(phi) + np.sin(psi) * np.sin(phi),
             np.sin(psi) * np.sin(theta) * np.cos(phi) - np.cos(psi) * np.sin(phi),
@@ -80,6 +80,7 @@ def body_z_axis(euler_rad: FloatArray) -> FloatArray:
         ),
         axis=1,
     )
+    return axes
 
 
 class CorrelatedShadowing:
