@@ -105,7 +105,7 @@ class CorrelatedShadowing:
         moved = moved_rx + moved_tx
         rho = np.where(np.isnan(moved), 0.0, np.exp(-np.nan_to_num(moved) / self.decorrelation_m))
         w = self._rng.standard_normal(p_m.shape[0])
-        new = rho * self.value_db[sender] + np.sqrt(1.0 - rho * rho) * self.sigma_db * w
+        new: FloatArray = rho * self.value_db[sender] + np.sqrt(1.0 - rho * rho) * self.sigma_db * w
         self.value_db[sender] = new
         self.value_db[:, sender] = new
         self.anchor_m[:, sender] = p_m
