@@ -23,6 +23,27 @@ Which constant each function uses:
 Distances below :data:`MIN_DISTANCE_M` (1 m) are clamped to it: the far-field model means nothing
 closer, and log10(0) never happens. Negative distances raise ValueError; NaN propagates.
 All functions are vectorised: array arguments broadcast and the result has the broadcast shape.
+
+Beyond free space (the simulated radio's options, ``sim_backend/radio.py``):
+
+- log-distance loss (Rappaport, *Wireless Communications*, 2nd ed., eq. 4.68)::
+
+      L(d) = L1(f) + 10 n log10(max(d, 1 m)),    n = 2 is free space
+
+  (:func:`log_distance_loss_db`);
+- the two-ray ground-reflection model over flat ground (Rappaport section 4.6): the direct
+  ray and the ray reflected at the ground with coefficient Gamma add coherently::
+
+      G_2ray = 20 log10 | 1 + Gamma (d_los / d_ref) exp(-j 2 pi (d_ref - d_los) / lambda) |
+
+  with d_ref the length of the path via the mirror image of the transmitter below the
+  ground; Gamma = -1 (grazing incidence; :func:`two_ray_gain_db`);
+- the half-wave dipole's power gain at angle theta from its axis (Balanis, *Antenna
+  Theory*, 4th ed., eq. 4-84)::
+
+      G(theta) = 1.641 [cos(pi/2 cos theta) / sin theta]^2      (2.15 dBi broadside)
+
+  (:func:`dipole_gain_dbi`).
 """
 
 from __future__ import annotations
@@ -36,13 +57,17 @@ __all__ = [
     "DB_PER_LN",
     "DETECTOR_LOSS_AT_1M_DB",
     "FSPL_CONSTANT_DB",
+    "GROUND_REFLECTION_COEFFICIENT",
     "LOSS_AT_1M_2400MHZ_DB",
     "MIN_DISTANCE_M",
     "RID_FREQUENCY_MHZ",
+    "dipole_gain_dbi",
     "distance_m_from_power",
     "implied_tx_power_dbm",
+    "log_distance_loss_db",
     "loss_at_1m_db",
     "received_power_dbm",
+    "two_ray_gain_db",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -115,3 +140,63 @@ def implied_tx_power_dbm(
     rssi = np.asarray(rssi_dbm, dtype=np.float64)
     pt: FloatArray = rssi + _log_distance_db(distance_m) + np.asarray(loss_1m_db, np.float64)
     return pt
+
+
+#: Ground reflection coefficient of the two-ray model (grazing incidence).
+GROUND_REFLECTION_COEFFICIENT = -1.0
+#: Speed of light (m/s), for the wavelength of the two-ray phase.
+SPEED_OF_LIGHT_M_S = 299_792_458.0
+#: Floor of the two-ray gain (dB): a perfect null would give -inf (real ground is rough).
+TWO_RAY_FLOOR_DB = -30.0
+#: Half-wave dipole directivity (1.641, 2.15 dBi) and the floor of its pattern nulls (dBi):
+#: the airframe and the ground fill the nulls of a real installed antenna.
+DIPOLE_DIRECTIVITY = 1.641
+DIPOLE_FLOOR_DBI = -20.0
+
+
+def log_distance_loss_db(
+    distance_m: ArrayLike,
+    exponent: float = 2.0,
+    frequency_mhz: ArrayLike = RID_FREQUENCY_MHZ,
+) -> FloatArray:
+    """L(d) = L1(f) + 10 n log10(max(d, 1 m)) (dB); n = 2 equals the free-space loss."""
+    if not exponent > 0.0:
+        raise ValueError(f"exponent must be > 0, got {exponent!r}")
+    loss: FloatArray = (exponent / 2.0) * _log_distance_db(distance_m) + loss_at_1m_db(
+        frequency_mhz
+    )
+    return loss
+
+
+def two_ray_gain_db(
+    horizontal_m: ArrayLike,
+    tx_height_m: ArrayLike,
+    rx_height_m: ArrayLike,
+    frequency_mhz: float = RID_FREQUENCY_MHZ,
+) -> FloatArray:
+    """Two-ray gain over the direct ray alone (dB), floored at :data:`TWO_RAY_FLOOR_DB`.
+
+    Heights above the flat ground (clamped to >= 0); ``horizontal_m`` the ground distance.
+    """
+    x = np.asarray(horizontal_m, dtype=np.float64)
+    ht = np.maximum(np.asarray(tx_height_m, dtype=np.float64), 0.0)
+    hr = np.maximum(np.asarray(rx_height_m, dtype=np.float64), 0.0)
+    d_los = np.maximum(np.hypot(x, ht - hr), MIN_DISTANCE_M)
+    d_ref = np.maximum(np.hypot(x, ht + hr), MIN_DISTANCE_M)
+    wavelength_m = SPEED_OF_LIGHT_M_S / (frequency_mhz * 1e6)
+    phase = 2.0 * np.pi * (d_ref - d_los) / wavelength_m
+    field = 1.0 + GROUND_REFLECTION_COEFFICIENT * (d_los / d_ref) * np.exp(-1j * phase)
+    power = np.maximum(np.abs(field) ** 2, 10.0 ** (TWO_RAY_FLOOR_DB / 10.0))
+    gain: FloatArray = 10.0 * np.log10(power)
+    return gain
+
+
+def dipole_gain_dbi(cos_theta: ArrayLike) -> FloatArray:
+    """Half-wave dipole gain (dBi) at angle theta from its axis, floored at
+    :data:`DIPOLE_FLOOR_DBI`; ``cos_theta`` in [-1, 1]."""
+    c = np.clip(np.asarray(cos_theta, dtype=np.float64), -1.0, 1.0)
+    sin2 = np.maximum(1.0 - c * c, 1e-12)
+    pattern = np.cos(0.5 * np.pi * c) ** 2 / sin2
+    power = np.maximum(DIPOLE_DIRECTIVITY * pattern, 10.0 ** (DIPOLE_FLOOR_DBI / 10.0))
+    gain: FloatArray = 10.0 * np.log10(power)
+    return gain

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from typing import Literal
 
 from ridsafe.common.checks import check_finite_vector
 from ridsafe.common.errors import FieldValueError
@@ -92,29 +93,79 @@ class SpooferConfig:
 
 @dataclass(frozen=True)
 class RadioConfig:
-    """The RID radio channel (DESIGN.md section 6): free-space path loss at
-    ``frequency_mhz``, optional log-normal shadowing, receiver sensitivity, packet loss."""
+    """The RID radio channel (DESIGN.md section 6; the model: ``sim_backend/radio.py``).
+
+    The defaults are free-space path loss at ``frequency_mhz`` with i.i.d. 1 dB log-normal
+    shadowing, isotropic antennas and exact RSSI (the paper's channel). Each option below
+    makes the channel wrong in one way a real 2.4 GHz air-to-air link is; its default keeps
+    that part off. Sources at each field and in ``configs/urban.yaml``.
+    """
 
     frequency_mhz: float = 2400.0
     tx_power_dbm: float = 20.0
     shadowing_sigma_db: float = 1.0
     sensitivity_dbm: float = -95.0
     packet_loss_probability: float = 0.0
+    #: Log-distance exponent n: loss L1 + 10 n log10(d) (Rappaport eq. 4.68; 2 = free space).
+    path_loss_exponent: float = 2.0
+    #: Two-ray model over flat ground at z = 0 (Rappaport section 4.6), antennas at each
+    #: aircraft's height plus ``antenna_height_m``.
+    ground_reflection: bool = False
+    antenna_height_m: float = 0.3
+    #: 'dipole': a half-wave dipole along each aircraft's body z axis (Balanis eq. 4-84), its
+    #: gain from the angle between that axis and the other aircraft, so attitude matters.
+    antenna: Literal["isotropic", "dipole"] = "isotropic"
+    #: Std of each receiver's fixed RSSI calibration offset (dB), drawn once per run.
+    receiver_bias_sigma_db: float = 0.0
+    #: Std of each transmitter's true power about its nominal (dB), drawn once per run.
+    tx_power_sigma_db: float = 0.0
+    #: > 0: shadowing is spatially correlated per link with correlation
+    #: exp(-displacement / this) (Gudmundson, Electron. Lett. 27(23), 1991); 0: i.i.d. draws.
+    shadowing_decorrelation_m: float = 0.0
+    #: Small-scale fading per reception: 'rician' with factor ``rician_k_db``.
+    fading: Literal["none", "rician"] = "none"
+    rician_k_db: float = 6.0
+    #: Reported RSSI rounded to this step (dB; 1 = whole dBm as real receivers report); 0 off.
+    rssi_resolution_db: float = 0.0
 
     def __post_init__(self) -> None:
         if not 1.0 <= self.frequency_mhz <= 100_000.0:
             raise FieldValueError("frequency_mhz", f"expected 1..100000, got {self.frequency_mhz}")
         if not -30.0 <= self.tx_power_dbm <= 40.0:
             raise FieldValueError("tx_power_dbm", f"expected -30..40 dBm, got {self.tx_power_dbm}")
-        if not 0.0 <= self.shadowing_sigma_db <= 20.0:
-            raise FieldValueError(
-                "shadowing_sigma_db", f"expected 0..20 dB, got {self.shadowing_sigma_db}"
-            )
+        for name in (
+            "shadowing_sigma_db",
+            "receiver_bias_sigma_db",
+            "tx_power_sigma_db",
+            "rssi_resolution_db",
+        ):
+            value = getattr(self, name)
+            if not 0.0 <= value <= 20.0:
+                raise FieldValueError(name, f"expected 0..20 dB, got {value}")
         if not 0.0 <= self.packet_loss_probability < 1.0:
             raise FieldValueError(
                 "packet_loss_probability",
                 f"expected 0 <= p < 1, got {self.packet_loss_probability}",
             )
+        if not 1.0 <= self.path_loss_exponent <= 6.0:
+            raise FieldValueError(
+                "path_loss_exponent", f"expected 1..6, got {self.path_loss_exponent}"
+            )
+        if not 0.0 <= self.antenna_height_m <= 10.0:
+            raise FieldValueError(
+                "antenna_height_m", f"expected 0..10 m, got {self.antenna_height_m}"
+            )
+        if not 0.0 <= self.shadowing_decorrelation_m <= 10_000.0:
+            raise FieldValueError(
+                "shadowing_decorrelation_m",
+                f"expected 0..10000 m, got {self.shadowing_decorrelation_m}",
+            )
+        if not -20.0 <= self.rician_k_db <= 40.0:
+            raise FieldValueError("rician_k_db", f"expected -20..40 dB, got {self.rician_k_db}")
+        if self.antenna not in ("isotropic", "dipole"):
+            raise FieldValueError("antenna", f"expected isotropic or dipole, got {self.antenna!r}")
+        if self.fading not in ("none", "rician"):
+            raise FieldValueError("fading", f"expected none or rician, got {self.fading!r}")
 
 
 @dataclass(frozen=True)

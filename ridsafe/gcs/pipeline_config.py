@@ -40,6 +40,7 @@ from ridsafe.common.checks import (
 )
 from ridsafe.common.errors import FieldValueError
 from ridsafe.common.messages import RidsafeDetector
+from ridsafe.gcs.calibration.config import CalibrationConfig
 from ridsafe.gcs.localisation.registry import DEFAULT_ESTIMATOR, check_estimator
 
 __all__ = [
@@ -356,6 +357,9 @@ class PipelineConfig:
     tracks: TrackConfig = field(default_factory=TrackConfig)
     region: RegionConfig = field(default_factory=RegionConfig)
     forced_alert: ForcedAlertConfig = field(default_factory=ForcedAlertConfig)
+    #: Channel calibration on the cooperative aircraft (``calibration/``); off: the
+    #: channel is ``rssi_sigma_db`` and free space, as configured.
+    calibration: CalibrationConfig = field(default_factory=CalibrationConfig)
 
     def __post_init__(self) -> None:
         check_positive("rssi_sigma_db", self.rssi_sigma_db)

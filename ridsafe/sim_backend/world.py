@@ -360,7 +360,9 @@ class SimBackend:
             )
         self.last_transmissions, self._pending_air = self._pending_air, []
         positions = self.fleet.state[:, POS_ENU]
-        self.last_receptions = self.radio.deliver(self.last_transmissions, positions)
+        self.last_receptions = self.radio.deliver(
+            self.last_transmissions, positions, self.fleet.state[:, EULER]
+        )
         for rx in self.last_receptions:
             sender = self.transponders[rx.transmission.sender]
             report = self.transponders[rx.receiver].report(

@@ -17,7 +17,9 @@ becomes arrays (truth interpolation) in :mod:`ridsafe.tools.analysis.run_arrays`
   region), each benign aircraft's true position ``x`` at the record time is inside when
   ``(x - c)^T P^-1 (x - c) <= chi2_threshold``; entry events per (aircraft, region uas_id)
   over that region's updates (the first update finding an aircraft inside is an entry).
-  None when the log has no region at all (trust-RID publishes none).
+  A benign aircraft is never counted inside the region raised about its own serial (a
+  false alert): it cannot leave itself. None when the log has no region at all (trust-RID
+  publishes none).
 - ``containment_rate`` (LCR): over the spoofer's regions at or after the first alert, the
   fraction whose ellipsoid contains the spoofer's true position at the record time.
 - ``rmse_m`` / ``mae_m``: over the spoofer's ``/gcs/tracks`` records at or after the alert,
@@ -36,6 +38,9 @@ becomes arrays (truth interpolation) in :mod:`ridsafe.tools.analysis.run_arrays`
   message type): how long the GCS needed once it could in principle localise. Negative when
   it alerted earlier; None without alert or without such receptions.
 - ``false_alerts``: ``raised`` alerts for any uas_id but the spoofer's serial.
+- ``false_alerts_per_aircraft_hour``: ``false_alerts`` over the benign aircraft's flight
+  time (number of benign aircraft times the truth's time span, in hours); None without
+  benign aircraft or truth.
 - ``wall_clock_s``: ``/run/end``'s wall clock; None when the run has no end record.
 - ``gcs_compute_s``: sum of ``/gcs/cycle`` ``compute_ms`` / 1000; ``gcs_update_p99_ms``
   and ``planner_decision_p99_ms`` (``/companion/decisions``): 99th percentile of
@@ -49,7 +54,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -91,6 +96,7 @@ METRIC_KEYS: tuple[str, ...] = (
     "alert_time_s",
     "detection_delay_s",
     "false_alerts",
+    "false_alerts_per_aircraft_hour",
     "wall_clock_s",
     "gcs_compute_s",
     "gcs_update_p99_ms",
@@ -143,6 +149,22 @@ def false_alerts(run: RunLog) -> int:
     )
 
 
+def false_alerts_per_aircraft_hour(run: RunLog) -> float | None:
+    span_s = float(run.truth.t_s[-1] - run.truth.t_s[0]) if run.truth.t_s.size > 1 else 0.0
+    hours = len(run.benign_sysids) * span_s / 3600.0
+    return false_alerts(run) / hours if hours > 0.0 else None
+
+
+def _benign_serials(run: RunLog) -> dict[str, int]:
+    """Serial -> sysid of the benign aircraft of ``/run/meta``."""
+    aircraft = run.meta.get("aircraft") or []
+    return {
+        str(a["serial"]): int(a["sysid"])
+        for a in aircraft
+        if isinstance(a, Mapping) and "serial" in a and "sysid" in a
+    }
+
+
 def _nmac(run: RunLog, min_height_m: float) -> tuple[int | None, int | None]:
     truth = run.truth
     benign = _columns(truth, run.benign_sysids)
@@ -161,9 +183,11 @@ def _unsafe_violations(run: RunLog, min_height_m: float) -> int | None:
     regions = run.regions
     if regions.t_s.size == 0:
         return None
-    benign = _columns(run.truth, run.benign_sysids)
+    serials = _benign_serials(run)
     total = 0
     for uas_id in np.unique(regions.uas_id):
+        own = serials.get(str(uas_id))
+        benign = _columns(run.truth, [s for s in run.benign_sysids if s != own])
         group = regions.select(regions.uas_id == uas_id)
         order = np.argsort(group.t_s, kind="stable")
         group = group.select(order)
@@ -292,6 +316,7 @@ def compute_metrics(
         "alert_time_s": alert_time_s(run),
         "detection_delay_s": detection_delay_s(run),
         "false_alerts": false_alerts(run),
+        "false_alerts_per_aircraft_hour": false_alerts_per_aircraft_hour(run),
         "wall_clock_s": None if wall is None else float(wall),
         "gcs_compute_s": float(run.gcs_compute_ms.sum() / 1000.0)
         if run.gcs_compute_ms.size

@@ -90,6 +90,7 @@ ROWS: tuple[Row, ...] = (
     Row("alert_time_s", "Detection time (s)", EXTRA, 2),
     Row("detection_delay_s", "Detection delay after 4 aircraft heard it (s)", EXTRA, 2),
     Row("false_alerts", "False alerts", EXTRA),
+    Row("false_alerts_per_aircraft_hour", "False alerts per aircraft-hour", EXTRA, 2),
     Row("min_distance_to_spoofer_m", "Min distance to spoofer (m)", EXTRA, 1),
     Row("gcs_update_p99_ms", "GCS update p99 (ms)", EXTRA, 2),
     Row("planner_decision_p99_ms", "Planner decision p99 (ms)", EXTRA, 2),

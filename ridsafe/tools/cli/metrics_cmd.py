@@ -30,6 +30,7 @@ _DISPLAY: dict[str, tuple[str, str, str]] = {
     "alert_time_s": ("first alert", "s", ".2f"),
     "detection_delay_s": ("alert after 4 aircraft heard it", "s", ".2f"),
     "false_alerts": ("false alerts", "alerts", "d"),
+    "false_alerts_per_aircraft_hour": ("false alerts per aircraft-hour", "/ac-h", ".2f"),
     "wall_clock_s": ("wall clock", "s", ".1f"),
     "gcs_compute_s": ("GCS compute", "s", ".2f"),
     "gcs_update_p99_ms": ("GCS update p99", "ms", ".2f"),

@@ -21,9 +21,9 @@ from ridsafe.common.logsink import LogSink
 from ridsafe.companion.companion import Companion
 from ridsafe.companion.config import CompanionSpec
 from ridsafe.companion.planners import PlannerSettings, make_planner
+from ridsafe.gcs.calibration.pipeline import make_pipeline
 from ridsafe.gcs.config import ClockSource
 from ridsafe.gcs.gcs import Gcs
-from ridsafe.gcs.pipeline import EstimationPipeline
 from ridsafe.gcs.pipeline_api import GcsPipeline
 from ridsafe.sim_backend.world import EndpointKind, SimBackend
 from ridsafe.tools.run.scenario import ScenarioFile
@@ -113,7 +113,7 @@ def make_companions(
 
 def make_estimation_pipeline(loaded: ScenarioFile) -> GcsPipeline:
     """The GCS's estimation pipeline, configured by the file's ``pipeline`` section."""
-    return EstimationPipeline(loaded.pipeline)
+    return make_pipeline(loaded.pipeline)
 
 
 def make_gcs(

@@ -238,6 +238,28 @@ def test_benign_on_the_ground_below_the_spoofer_is_no_nmac(tmp_path: Path) -> No
 # Unsafe regions, containment, localisation
 
 
+def test_an_aircraft_is_not_unsafe_inside_the_region_about_its_own_false_alert(
+    tmp_path: Path,
+) -> None:
+    """A region raised about benign aircraft 1 (a false alert) follows aircraft 1: it is
+    inside all along, but cannot leave itself. Aircraft 2 flying through it does count."""
+    cov = 400.0 * np.eye(3)
+    own = "RSAF800000001"
+    extra = [region(t, (0.0, 0.0, 60.0), cov, uas_id=own) for t in np.arange(0.0, 60.0, 0.25)]
+    extra.append(alert(0.0, uas_id=own))
+    spec = RunSpec(
+        [still((0.0, 0.0, 60.0)), line((-300.0, 0.0, 60.0), (10.0, 0.0, 0.0))],
+        spoofer=still((900.0, 900.0, 60.0)),
+        duration_s=60.0,
+        extra=extra,
+    )
+    result = metrics_of(tmp_path, spec)
+    assert result["unsafe_violations"] == 1  # aircraft 2's entry only
+    assert result["false_alerts"] == 1
+    # One false alert over two aircraft flying ~60 s: 1 / (2 * 60 / 3600) per aircraft-hour.
+    assert result["false_alerts_per_aircraft_hour"] == pytest.approx(30.0, rel=0.02)
+
+
 def test_unsafe_violations_count_entries_into_the_ellipsoid(tmp_path: Path) -> None:
     # Region: sphere of radius sqrt(7.81 * 400) = 56 m about (0, 0, 20), every 0.25 s.
     cov = 400.0 * np.eye(3)

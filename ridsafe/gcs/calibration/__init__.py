@@ -1,0 +1,1 @@
+"""Channel calibration: the GCS learns the radio channel from its cooperative aircraft."""

@@ -1,0 +1,61 @@
+"""Configuration of the GCS's channel calibration (YAML ``pipeline.calibration``).
+
+Off by default: the pipeline then takes the channel from ``pipeline.rssi_sigma_db`` and the
+free-space model, as before. On, those become starting points the calibration replaces once
+it has ``min_samples`` labelled receptions (``calibration/pipeline.py``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ridsafe.common.checks import check_non_negative, check_positive
+from ridsafe.common.errors import FieldValueError
+
+__all__ = ["CalibrationConfig"]
+
+
+@dataclass(frozen=True)
+class CalibrationConfig:
+    """Online channel estimation from benign-to-benign receptions."""
+
+    enabled: bool = False
+    #: Labelled receptions needed before the channel is estimated and detection starts.
+    min_samples: int = 300
+    #: ... and no earlier than this (sim seconds), so several geometries are seen.
+    min_time_s: float = 2.0
+    #: A claim is a cooperative aircraft's when it lies within this of one receiver's own
+    #: reported position (reported within ``match_age_s`` of the claim), ...
+    match_m: float = 10.0
+    match_age_s: float = 1.0
+    #: ... consistently: at least this many matches, all but ``max_mismatch_fraction`` of
+    #: them with the same receiver.
+    min_matches: int = 3
+    max_mismatch_fraction: float = 0.2
+    #: Priors: path-loss exponent N(prior, std^2), each receiver's bias N(0, std^2) (dB).
+    exponent_prior: float = 2.0
+    exponent_prior_std: float = 1.0
+    receiver_bias_prior_std_db: float = 3.0
+    #: Student-t degrees of freedom of the robust fit (iteratively reweighted least squares).
+    student_dof: float = 4.0
+    #: The noise std the pipeline is given never goes below this (dB).
+    sigma_floor_db: float = 0.5
+    #: Labelled receptions kept (the oldest dropped).
+    max_samples: int = 20_000
+    #: Claims held while calibrating (seconds of history replayed once calibrated).
+    hold_s: float = 10.0
+
+    def __post_init__(self) -> None:
+        for name in ("min_samples", "min_matches", "max_samples"):
+            if getattr(self, name) < 1:
+                raise FieldValueError(name, f"expected >= 1, got {getattr(self, name)}")
+        for name in ("match_m", "match_age_s", "exponent_prior", "exponent_prior_std"):
+            check_positive(name, getattr(self, name))
+        for name in ("receiver_bias_prior_std_db", "student_dof", "sigma_floor_db"):
+            check_positive(name, getattr(self, name))
+        check_non_negative("min_time_s", self.min_time_s)
+        check_non_negative("hold_s", self.hold_s)
+        if not 0.0 <= self.max_mismatch_fraction < 0.5:
+            raise FieldValueError(
+                "max_mismatch_fraction", f"expected 0 <= f < 0.5, got {self.max_mismatch_fraction}"
+            )

@@ -1,0 +1,112 @@
+r"""A GCS pipeline that is not told the channel: it calibrates on its cooperative aircraft.
+
+``CalibratingPipeline`` wraps the estimation pipeline (``gcs/pipeline.py``). Until it has
+``min_samples`` labelled receptions (``cooperative.py``) and ``min_time_s`` has passed it
+holds the claims (the last ``hold_s`` seconds); then it fits the channel once
+(``channel_fit.py``) and hands the inner pipeline every claim, held ones first, with the
+RSSI mapped onto the free-space model the detectors and localisers assume::
+
+    rssi' = (2 / n) (rssi - b_r)
+
+With rssi = P_s + b_r - 10 n log10 d + e this is rssi' = P'_s - 20 log10 d + (2/n) e, the
+paper's model with a transmit power P'_s the estimators fit anyway, and noise std
+(2/n) sigma: the inner pipeline's ``rssi_sigma_db`` (floored at ``sigma_floor_db``). So the
+detectors' thresholds and the localisers' measurement noise follow the fitted channel;
+``pipeline.rssi_sigma_db`` is only the starting point that is never used once calibrated.
+The first alert can come no earlier than the calibration (a detection delay measured in
+the report).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from collections import deque
+from collections.abc import Sequence
+
+import numpy as np
+
+from ridsafe.gcs.calibration.channel_fit import ChannelEstimate, fit_channel
+from ridsafe.gcs.calibration.cooperative import CooperativeLabeller
+from ridsafe.gcs.pipeline import EstimationPipeline
+from ridsafe.gcs.pipeline_api import CycleOutput, GcsPipeline, ObservedClaim, readonly
+from ridsafe.gcs.pipeline_config import PipelineConfig
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["CalibratingPipeline", "make_pipeline", "to_free_space"]
+
+
+def to_free_space(claim: ObservedClaim, estimate: ChannelEstimate) -> ObservedClaim:
+    """The claim with its RSSI mapped onto the free-space model (module docstring)."""
+    rssi = (2.0 / estimate.exponent) * (claim.rssi_dbm - estimate.bias_of(claim.rx_sysid))
+    return dataclasses.replace(claim, rssi_dbm=readonly(rssi))
+
+
+class CalibratingPipeline:
+    """The ``GcsPipeline`` protocol: calibrate, then the estimation pipeline on mapped RSSI."""
+
+    def __init__(self, config: PipelineConfig) -> None:
+        self.config = config
+        self.labeller = CooperativeLabeller(config.calibration)
+        self.estimate: ChannelEstimate | None = None
+        self.inner: EstimationPipeline | None = None
+        self._held: deque[ObservedClaim] = deque()
+
+    def step(self, now_s: float, claims: Sequence[ObservedClaim]) -> CycleOutput:
+        for claim in claims:
+            self.labeller.observe(claim)
+        if self.inner is None or self.estimate is None:
+            self._hold(claims)
+            if not self._ready(now_s):
+                return CycleOutput()
+            self.estimate = self._fit()
+            self.inner = EstimationPipeline(self._calibrated_config(self.estimate))
+            claims, self._held = list(self._held), deque()
+        return self.inner.step(now_s, [to_free_space(c, self.estimate) for c in claims])
+
+    @property
+    def compute_s(self) -> deque[float]:
+        return self.inner.compute_s if self.inner is not None else deque([0.0])
+
+    def _hold(self, claims: Sequence[ObservedClaim]) -> None:
+        self._held.extend(claims)
+        newest = max((c.t_s for c in self._held), default=0.0)
+        while self._held and self._held[0].t_s < newest - self.config.calibration.hold_s:
+            self._held.popleft()
+
+    def _ready(self, now_s: float) -> bool:
+        cal = self.config.calibration
+        return now_s >= cal.min_time_s and len(self.labeller.samples) >= cal.min_samples
+
+    def _fit(self) -> ChannelEstimate:
+        s = self.labeller.samples
+        estimate = fit_channel(
+            np.array(s.tx_sysid, dtype=np.int64),
+            np.array(s.rx_sysid, dtype=np.int64),
+            np.array(s.distance_m, dtype=np.float64),
+            np.array(s.rssi_dbm, dtype=np.float64),
+            self.config.calibration,
+        )
+        logger.info(
+            "channel calibrated on %d receptions: exponent %.2f +/- %.2f, sigma %.2f dB "
+            "(robust scale %.2f dB), receiver biases std %.2f dB",
+            estimate.n_samples,
+            estimate.exponent,
+            estimate.exponent_std,
+            estimate.sigma_db,
+            estimate.robust_scale_db,
+            float(np.std(list(estimate.rx_bias_db.values()))),
+        )
+        return estimate
+
+    def _calibrated_config(self, estimate: ChannelEstimate) -> PipelineConfig:
+        sigma = max(estimate.sigma_db, self.config.calibration.sigma_floor_db)
+        return dataclasses.replace(self.config, rssi_sigma_db=(2.0 / estimate.exponent) * sigma)
+
+
+def make_pipeline(config: PipelineConfig) -> GcsPipeline:
+    """The pipeline ``config`` asks for: calibrating when ``calibration.enabled``."""
+    if config.calibration.enabled:
+        return CalibratingPipeline(config)
+    return EstimationPipeline(config)

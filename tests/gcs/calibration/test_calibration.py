@@ -1,0 +1,128 @@
+"""Channel calibration: the fit recovers a known channel, the labeller finds the cooperative
+aircraft and never the spoofer, the calibrating pipeline maps RSSI onto free space."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ridsafe.gcs.calibration.channel_fit import fit_channel
+from ridsafe.gcs.calibration.config import CalibrationConfig
+from ridsafe.gcs.calibration.cooperative import CooperativeLabeller
+from ridsafe.gcs.calibration.pipeline import CalibratingPipeline, make_pipeline, to_free_space
+from ridsafe.gcs.pipeline import EstimationPipeline
+from ridsafe.gcs.pipeline_api import ObservedClaim, readonly
+from ridsafe.gcs.pipeline_config import PipelineConfig
+
+CFG = CalibrationConfig(enabled=True, min_samples=200, min_time_s=0.0)
+
+
+def _synthetic(
+    seed: int, exponent: float, bias_std: float, sigma: float, n: int = 12, k: int = 4000
+) -> tuple[np.ndarray, ...]:
+    rng = np.random.default_rng(seed)
+    bias = rng.normal(0.0, bias_std, n)
+    bias -= bias.mean()
+    level = 20.0 - 40.0 + rng.normal(0.0, 1.5, n)
+    tx = rng.integers(1, n + 1, k)
+    rx = (tx + rng.integers(1, n, k) - 1) % n + 1
+    d = rng.uniform(30.0, 900.0, k)
+    rssi = level[tx - 1] + bias[rx - 1] - 10 * exponent * np.log10(d) + rng.normal(0, sigma, k)
+    return tx, rx, d, rssi, bias, level
+
+
+@pytest.mark.parametrize(("exponent", "bias_std", "sigma"), [(2.0, 0.0, 1.0), (3.0, 4.0, 4.0)])
+def test_fit_recovers_exponent_biases_and_sigma(
+    exponent: float, bias_std: float, sigma: float
+) -> None:
+    tx, rx, d, rssi, bias, level = _synthetic(1, exponent, bias_std, sigma)
+    est = fit_channel(tx, rx, d, rssi, CFG)
+    assert est.exponent == pytest.approx(exponent, abs=4 * est.exponent_std + 0.01)
+    assert est.sigma_db == pytest.approx(sigma, rel=0.05)
+    fitted = np.array([est.rx_bias_db[s] for s in range(1, 13)])
+    assert np.max(np.abs(fitted - bias)) < 0.5 + 0.05 * bias_std
+    levels = np.array([est.tx_level_db[s] for s in range(1, 13)])
+    np.testing.assert_allclose(levels - levels.mean(), level - level.mean(), atol=0.6)
+
+
+def test_fit_is_robust_to_deep_fades() -> None:
+    """10 % of receptions 15 dB down: the exponent barely moves, the RMS sigma reports them."""
+    tx, rx, d, rssi, _, _ = _synthetic(2, 2.5, 2.0, 1.0)
+    faded = rssi.copy()
+    faded[::10] -= 15.0
+    est = fit_channel(tx, rx, d, faded, CFG)
+    assert est.exponent == pytest.approx(2.5, abs=0.05)
+    assert est.robust_scale_db < 2.0
+    assert est.sigma_db > 4.0
+
+
+def _claim(
+    uas_id: str, t: float, claimed: list[float], rx: dict[int, list[float]]
+) -> ObservedClaim:
+    ids = np.array(sorted(rx), dtype=np.int64)
+    p = np.array([rx[i] for i in sorted(rx)])
+    d = np.linalg.norm(p - np.array(claimed), axis=1)
+    rssi = 20.0 - 40.04 - 20 * np.log10(np.maximum(d, 1.0))
+    return ObservedClaim(
+        uas_id,
+        t,
+        readonly(claimed),
+        None,
+        ids,
+        readonly(p),
+        readonly(np.full(len(ids), t)),
+        readonly(rssi),
+    )
+
+
+def test_labeller_finds_cooperative_aircraft_and_not_the_spoofer() -> None:
+    positions = {1: [0.0, 0.0, 50.0], 2: [300.0, 0.0, 60.0], 3: [0.0, 400.0, 70.0]}
+    lab = CooperativeLabeller(CFG)
+    for k in range(5):
+        t = float(k)
+        for sysid, p in positions.items():
+            others = {i: q for i, q in positions.items() if i != sysid}
+            lab.observe(_claim(f"RID{sysid}", t, p, others))
+        # The spoofer claims a place 50 m from anyone and is heard by all three.
+        lab.observe(_claim("SPOOF", t, [150.0, 150.0, 60.0], positions))
+    assert lab.labels() == {"RID1": 1, "RID2": 2, "RID3": 3}
+    # The first min_matches - 1 matches only vote; later ones give samples (2 receivers
+    # each). RID1's first claim matches nobody: nobody had reported RID1's position yet.
+    assert len(lab.samples) == ((4 - 2) + (5 - 2) * 2) * 2
+    assert set(lab.samples.tx_sysid) == {1, 2, 3}
+
+
+def test_to_free_space_undoes_exponent_and_bias() -> None:
+    tx, rx, d, rssi, _, _ = _synthetic(3, 3.0, 3.0, 0.01)
+    est = fit_channel(tx, rx, d, rssi, CFG)
+    claim = _claim("X", 0.0, [0.0, 0.0, 50.0], {1: [100.0, 0.0, 50.0], 2: [0.0, 700.0, 50.0]})
+    raw = claim.rssi_dbm * 1.5 + est.bias_of(claim.rx_sysid)  # exponent 3 from exponent 2
+    mapped = to_free_space(
+        ObservedClaim(
+            claim.uas_id,
+            0.0,
+            claim.claimed_p_enu_m,
+            None,
+            claim.rx_sysid,
+            claim.rx_p_enu_m,
+            claim.rx_t_s,
+            readonly(raw),
+        ),
+        est,
+    )
+    # Differences between receivers are the free-space ones: 20 log10(700/100).
+    diff = mapped.rssi_dbm[0] - mapped.rssi_dbm[1]
+    assert diff == pytest.approx(
+        20 * math.log10(7.0) * 3.0 / est.exponent * (est.exponent / 3.0), abs=0.05
+    )
+
+
+def test_make_pipeline_honours_the_enable_flag() -> None:
+    assert isinstance(make_pipeline(PipelineConfig()), EstimationPipeline)
+    on = make_pipeline(PipelineConfig(calibration=CFG))
+    assert isinstance(on, CalibratingPipeline)
+    # Before calibrating it holds claims and answers nothing.
+    out = on.step(0.25, [_claim("SPOOF", 0.0, [150.0, 150.0, 60.0], {1: [0.0, 0.0, 50.0]})])
+    assert out.alert_changes == () and out.regions == ()
