@@ -9,7 +9,9 @@ deterministic and its bound has a false-alarm probability far below 1e-4.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -36,9 +38,11 @@ def _channel(
     seed: int = 0,
     tx_power_dbm: list[float] | None = None,
     n: int = 2,
-    **radio: float,
+    **radio: Any,
 ) -> RadioChannel:
-    config = RadioConfig(**{"shadowing_sigma_db": 0.0, "sensitivity_dbm": HEAR_ALL_DBM, **radio})
+    config = dataclasses.replace(
+        RadioConfig(shadowing_sigma_db=0.0, sensitivity_dbm=HEAR_ALL_DBM), **radio
+    )
     powers = tx_power_dbm if tx_power_dbm is not None else [20.0] * n
     return RadioChannel(config, powers, np.random.default_rng(seed))
 
