@@ -37,15 +37,14 @@ from ridsafe.common import messages as m
 from ridsafe.common.frozen import quick_init
 from ridsafe.common.messages import CopterMode, MavCmd, MavResult
 from ridsafe.common.messages import PositionTargetMask as Mask
+from ridsafe.sim_backend.home_frame import HomeFrame
+from ridsafe.sim_backend.targets import POSITION_BITS, VELOCITY_BITS, mask_rejection
 
 logger = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
 
 FORCE_DISARM_MAGIC = 21196.0
-_POSITION_BITS = Mask.X_IGNORE | Mask.Y_IGNORE | Mask.Z_IGNORE
-_VELOCITY_BITS = Mask.VX_IGNORE | Mask.VY_IGNORE | Mask.VZ_IGNORE
-_ACCEL_BITS = Mask.AX_IGNORE | Mask.AY_IGNORE | Mask.AZ_IGNORE
 
 
 @dataclass(frozen=True)
@@ -130,42 +129,6 @@ class VehicleSample:
     v_enu_m_s: FloatArray
     psi_rad: float
     on_ground: bool
-
-
-class HomeFrame:
-    """Exact map between the scenario ENU frame and a vehicle's local NED frame at its home.
-
-    Both are rigid transforms of ECEF, so ``p_ned = R p_enu + t`` exactly; R and t are read
-    off the frames module by mapping the origin and three 1 km axis points.
-    """
-
-    def __init__(self, scenario_origin: frames.GeodeticOrigin, home_enu_m: ArrayLike) -> None:
-        home = np.asarray(home_enu_m, dtype=np.float64)
-        lat, lon, alt = frames.enu_to_geodetic(scenario_origin, home)
-        self.home_geodetic = frames.GeodeticOrigin(float(lat), float(lon), float(alt))
-        self.home_enu_m = home
-        probe = np.vstack([np.zeros(3), 1000.0 * np.eye(3)])
-        plat, plon, palt = frames.enu_to_geodetic(scenario_origin, probe)
-        ned = frames.geodetic_to_ned(self.home_geodetic, plat, plon, palt)
-        self._t = ned[0]
-        self._r = (ned[1:] - ned[0]).T / 1000.0  # columns: images of the ENU unit axes
-
-    def enu_to_local_ned(self, p_enu_m: ArrayLike) -> FloatArray:
-        """Scenario ENU position(s) (..., 3) -> local NED (..., 3)."""
-        out: FloatArray = np.asarray(p_enu_m, dtype=np.float64) @ self._r.T + self._t
-        return out
-
-    def local_ned_to_enu(self, p_ned_m: ArrayLike) -> FloatArray:
-        out: FloatArray = (np.asarray(p_ned_m, dtype=np.float64) - self._t) @ self._r
-        return out
-
-    def vel_enu_to_ned(self, v_enu_m_s: ArrayLike) -> FloatArray:
-        out: FloatArray = np.asarray(v_enu_m_s, dtype=np.float64) @ self._r.T
-        return out
-
-    def vel_ned_to_enu(self, v_ned_m_s: ArrayLike) -> FloatArray:
-        out: FloatArray = np.asarray(v_ned_m_s, dtype=np.float64) @ self._r
-        return out
 
 
 @dataclass(frozen=True)
@@ -354,12 +317,12 @@ class Autopilot:
             return False
         mask = Mask(msg.type_mask)
         position = velocity = None
-        if not mask & _POSITION_BITS:
+        if not mask & POSITION_BITS:
             p_ned = np.asarray(msg.p_ned_m, dtype=np.float64)
             if msg.coordinate_frame == m.MavFrame.LOCAL_OFFSET_NED:
                 p_ned = p_ned + self.home.enu_to_local_ned(ctx.sample.p_enu_m)
             position = self.home.local_ned_to_enu(p_ned)
-        if not mask & _VELOCITY_BITS:
+        if not mask & VELOCITY_BITS:
             velocity = self.home.vel_ned_to_enu(msg.v_ned_m_s)
         yaw = None if mask & Mask.YAW_IGNORE else frames.wrap_pi(math.pi / 2 - msg.yaw_rad)
         if yaw is None:
@@ -382,7 +345,9 @@ class Autopilot:
             return "Target: not flying (arm and take off first)"
         if msg.coordinate_frame not in (m.MavFrame.LOCAL_NED, m.MavFrame.LOCAL_OFFSET_NED):
             return f"Target: frame {msg.coordinate_frame} unsupported"
-        return _mask_rejection(msg, self.config)
+        return mask_rejection(
+            msg, self.config.max_target_distance_m, self.config.max_target_speed_m_s
+        )
 
     # -- every tick ------------------------------------------------------------------------
 
@@ -464,45 +429,6 @@ class Autopilot:
         if not climbing:
             velocity[:2] = offset / distance * min(self.config.rtl_speed_m_s, distance / 2.0)
         self._actuators.set_target(self.vehicle, position_enu_m=target, velocity_enu_m_s=velocity)
-
-
-def _used(mask: Mask, bits: Mask) -> bool | None:
-    """True if all three axes are used, False if all ignored, None if mixed."""
-    ignored = mask & bits
-    if ignored == bits:
-        return False
-    return True if not ignored else None
-
-
-def _mask_rejection(msg: m.SetPositionTargetLocalNed, config: AutopilotConfig) -> str | None:
-    mask = Mask(msg.type_mask)
-    used_pos, used_vel = _used(mask, _POSITION_BITS), _used(mask, _VELOCITY_BITS)
-    if used_pos is None or used_vel is None:
-        return f"Target: mask {msg.type_mask} mixes used and ignored axes"
-    if (mask & _ACCEL_BITS) != _ACCEL_BITS:
-        return f"Target: mask {msg.type_mask} asks for acceleration"
-    if not (used_pos or used_vel):
-        return f"Target: mask {msg.type_mask} uses neither pos nor velocity"
-    return _value_rejection(msg, used_pos, used_vel, config)
-
-
-def _value_rejection(
-    msg: m.SetPositionTargetLocalNed, used_pos: bool, used_vel: bool, config: AutopilotConfig
-) -> str | None:
-    values: list[float] = []
-    if used_pos:
-        values.extend(msg.p_ned_m)
-    if used_vel:
-        values.extend(msg.v_ned_m_s)
-    if not (Mask(msg.type_mask) & Mask.YAW_IGNORE):
-        values.append(msg.yaw_rad)
-    if not all(math.isfinite(v) for v in values):
-        return "Target: NaN or infinite value in a used field"
-    if used_pos and max(abs(v) for v in msg.p_ned_m) > config.max_target_distance_m:
-        return f"Target: {max(abs(v) for v in msg.p_ned_m):.3g} m out of range"
-    if used_vel and math.hypot(*msg.v_ned_m_s) > config.max_target_speed_m_s:
-        return f"Target: {math.hypot(*msg.v_ned_m_s):.3g} m/s out of range"
-    return None
 
 
 # --- the tables -------------------------------------------------------------------------------
