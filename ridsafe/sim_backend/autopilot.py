@@ -34,17 +34,27 @@ from numpy.typing import ArrayLike, NDArray
 
 from ridsafe.common import frames
 from ridsafe.common import messages as m
-from ridsafe.common.frozen import quick_init
-from ridsafe.common.messages import CopterMode, MavCmd, MavResult
+from ridsafe.common import protocol_messages as pm
+from ridsafe.common.messages import CopterMode, MavResult
 from ridsafe.common.messages import PositionTargetMask as Mask
+from ridsafe.sim_backend.commands import (
+    ACCEPTED,
+    COMMAND_HANDLERS,
+    FORCE_DISARM_MAGIC,
+    RELATIVE_ALT_FRAMES,
+    Command,
+    CommandContext,
+    Outcome,
+    TelemetryControl,
+    VehicleSample,
+)
 from ridsafe.sim_backend.home_frame import HomeFrame
+from ridsafe.sim_backend.param_table import FailsafeAction, ParamStore
 from ridsafe.sim_backend.targets import POSITION_BITS, VELOCITY_BITS, mask_rejection
 
 logger = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
-
-FORCE_DISARM_MAGIC = 21196.0
 
 
 @dataclass(frozen=True)
@@ -62,6 +72,13 @@ class AutopilotConfig:
     max_target_distance_m: float = 50_000.0  # farther targets are rejected as out of range
     max_target_speed_m_s: float = 100.0  # faster targets are rejected; <= this is clipped to 8
     require_remote_id_to_arm: bool = False  # ArduPilot's DID_OPTIONS enforcement
+    # Companion loss: a setpoint stream (two or more SET_POSITION_TARGET_*) that stops for
+    # this long in GUIDED, in the air, triggers ``companion_loss_action`` (0 disables).
+    companion_loss_timeout_s: float = 10.0  # SIM_OFB_LOSS_T
+    companion_loss_action: FailsafeAction = FailsafeAction.LAND  # SIM_OFB_LOSS_ACT
+    # No position estimate for this long after start: arming refused with "PreArm: Need
+    # Position Estimate", as a real ArduCopter does for its first ~40 s (SIM_PREARM_T).
+    prearm_delay_s: float = 0.0
 
 
 class Behaviour(Enum):
@@ -93,7 +110,7 @@ MODE_RULES: dict[CopterMode, ModeRule] = {
     CopterMode.AUTO: ModeRule(True, False, Behaviour.MISSION, guided_flag=True),
     CopterMode.RTL: ModeRule(False, False, Behaviour.RTL, guided_flag=True),
     CopterMode.LAND: ModeRule(False, False, Behaviour.LAND, guided_flag=False),
-    CopterMode.BRAKE: ModeRule(False, False, Behaviour.HOLD, guided_flag=True),
+    CopterMode.BRAKE: ModeRule(True, False, Behaviour.HOLD, guided_flag=True),
 }
 
 
@@ -120,44 +137,6 @@ class Mission(Protocol):
         ...
 
 
-@quick_init
-@dataclass(frozen=True)
-class VehicleSample:
-    """One vehicle's truth at a tick, in the scenario ENU frame."""
-
-    p_enu_m: FloatArray
-    v_enu_m_s: FloatArray
-    psi_rad: float
-    on_ground: bool
-
-
-@dataclass(frozen=True)
-class Outcome:
-    """A command's result and, for rejections, the reason ArduPilot would print."""
-
-    result: MavResult
-    reason: str = ""
-
-
-ACCEPTED = Outcome(MavResult.ACCEPTED)
-
-
-class TelemetryControl(Protocol):
-    """The requesting link's telemetry schedule (MAV_CMD_SET_MESSAGE_INTERVAL and friends)."""
-
-    def set_interval(self, msg_id: int, interval_us: float) -> bool: ...
-    def request_once(self, msg_id: int) -> bool: ...
-
-
-@quick_init
-@dataclass(frozen=True)
-class CommandContext:
-    now_s: float
-    sample: VehicleSample
-    telemetry: TelemetryControl
-
-
-Handler = Callable[["Autopilot", m.CommandLong, CommandContext], Outcome]
 Check = tuple[Callable[["Autopilot", CommandContext], bool], MavResult, str]
 
 
@@ -190,6 +169,10 @@ class Autopilot:
         self.landed_since_s: float | None = None
         self.failsafe_active = False
         self.rejected_targets = 0
+        self.params = ParamStore(self.config, sysid)
+        self.setpoints_in_stream = 0
+        self.failsafes = 0
+        self._events: list[dict[str, object]] = []
         self._hold_enu_m: FloatArray | None = None
         self._status: list[m.StatusText] = []
 
@@ -210,6 +193,20 @@ class Autopilot:
             m.MavType.OCTOROTOR, m.MavAutopilot.ARDUPILOTMEGA, int(base), int(self.mode), state
         )
 
+    def take_events(self) -> list[dict[str, object]]:
+        """Failsafe events since the last call (``{sysid, event, action, mode}``)."""
+        out, self._events = self._events, []
+        return out
+
+    def prearm_ok(self, now_s: float) -> bool:
+        """The pre-arm checks that do not depend on mode or flight state pass."""
+        if self.params.get("ARMING_CHECK") == 0:
+            return True
+        if now_s < self.params.get("SIM_PREARM_T"):
+            return False
+        rid = self._remote_id_error
+        return rid is None or not self.config.require_remote_id_to_arm or rid(now_s) is None
+
     def take_status(self) -> list[m.StatusText]:
         """STATUSTEXT messages produced since the last call."""
         out, self._status = self._status, []
@@ -222,7 +219,10 @@ class Autopilot:
 
     # -- commands --------------------------------------------------------------------------
 
-    def handle_command(self, cmd: m.CommandLong, ctx: CommandContext) -> m.CommandAck:
+    def handle_command(
+        self, msg: m.CommandLong | pm.CommandInt, ctx: CommandContext
+    ) -> m.CommandAck:
+        cmd = Command.of(msg)
         handler = COMMAND_HANDLERS.get(cmd.command)
         if handler is None:
             outcome = Outcome(MavResult.UNSUPPORTED, f"Unsupported command {cmd.command}")
@@ -253,6 +253,7 @@ class Autopilot:
         if mode is not self.mode:
             self.mode = mode
             self.failsafe_active = False
+            self.setpoints_in_stream = 0
             self._hold_enu_m = ctx.sample.p_enu_m.copy()
             self._say(m.MavSeverity.INFO, f"Mode {mode.name}")
         return ACCEPTED
@@ -317,13 +318,18 @@ class Autopilot:
             return False
         mask = Mask(msg.type_mask)
         position = velocity = None
+        heading_rad = frames.wrap_pi(math.pi / 2 - ctx.sample.psi_rad)
+        body = msg.coordinate_frame in _BODY_FRAMES
         if not mask & POSITION_BITS:
             p_ned = np.asarray(msg.p_ned_m, dtype=np.float64)
-            if msg.coordinate_frame == m.MavFrame.LOCAL_OFFSET_NED:
+            if body:
+                p_ned = _yaw_rotate(p_ned, heading_rad)
+            if msg.coordinate_frame != m.MavFrame.LOCAL_NED:
                 p_ned = p_ned + self.home.enu_to_local_ned(ctx.sample.p_enu_m)
             position = self.home.local_ned_to_enu(p_ned)
         if not mask & VELOCITY_BITS:
-            velocity = self.home.vel_ned_to_enu(msg.v_ned_m_s)
+            v_ned = np.asarray(msg.v_ned_m_s, dtype=np.float64)
+            velocity = self.home.vel_ned_to_enu(_yaw_rotate(v_ned, heading_rad) if body else v_ned)
         yaw = None if mask & Mask.YAW_IGNORE else frames.wrap_pi(math.pi / 2 - msg.yaw_rad)
         if yaw is None:
             yaw = ctx.sample.psi_rad
@@ -334,7 +340,39 @@ class Autopilot:
         self.last_target_s = ctx.now_s
         self.target_has_velocity = velocity is not None
         self.failsafe_active = False
+        self.setpoints_in_stream += 1
         return True
+
+    def go_to_global(
+        self, lat_deg: float, lon_deg: float, alt_m: float, frame: int, ctx: CommandContext
+    ) -> Outcome:
+        """Fly to a WGS-84 point and hold there (DO_REPOSITION, guided MISSION_ITEM);
+        ``alt_m`` above home for the relative-altitude frames, else above the ellipsoid."""
+        if not all(math.isfinite(v) for v in (lat_deg, lon_deg, alt_m)):
+            return Outcome(MavResult.DENIED, "Guided: non-finite target")
+        if not (abs(lat_deg) <= 90.0 and abs(lon_deg) <= 180.0):
+            return Outcome(MavResult.DENIED, "Guided: latitude/longitude out of range")
+        if MODE_RULES[self.mode].behaviour is not Behaviour.GUIDED:
+            return Outcome(MavResult.DENIED, f"Guided: mode {self.mode.name} is not GUIDED")
+        if not self.armed or (ctx.sample.on_ground and self.takeoff_alt_enu_m is None):
+            return Outcome(MavResult.FAILED, "Guided: not flying (arm and take off first)")
+        home = self.home.home_geodetic
+        alt_msl = home.alt_m + alt_m if frame in RELATIVE_ALT_FRAMES else alt_m
+        p_ned = frames.geodetic_to_ned(home, lat_deg, lon_deg, alt_msl)
+        distance = float(np.max(np.abs(p_ned)))
+        if distance > self.config.max_target_distance_m:
+            return Outcome(MavResult.DENIED, f"Guided: {distance:.3g} m out of range")
+        self._actuators.set_target(
+            self.vehicle,
+            position_enu_m=self.home.local_ned_to_enu(p_ned),
+            yaw_rad=ctx.sample.psi_rad,
+        )
+        self.takeoff_alt_enu_m = None
+        self.last_target_s = ctx.now_s
+        self.target_has_velocity = False
+        self.failsafe_active = False
+        self.setpoints_in_stream = 0  # a one-shot target, not an offboard stream
+        return ACCEPTED
 
     def _target_rejection(
         self, msg: m.SetPositionTargetLocalNed, ctx: CommandContext
@@ -343,7 +381,7 @@ class Autopilot:
             return f"Target: mode {self.mode.name} is not GUIDED"
         if not self.armed or (ctx.sample.on_ground and self.takeoff_alt_enu_m is None):
             return "Target: not flying (arm and take off first)"
-        if msg.coordinate_frame not in (m.MavFrame.LOCAL_NED, m.MavFrame.LOCAL_OFFSET_NED):
+        if msg.coordinate_frame not in _TARGET_FRAMES:
             return f"Target: frame {msg.coordinate_frame} unsupported"
         return mask_rejection(
             msg, self.config.max_target_distance_m, self.config.max_target_speed_m_s
@@ -377,15 +415,15 @@ class Autopilot:
             self.landed_since_s = now_s
         landed_for = now_s - self.landed_since_s
         landing = MODE_RULES[self.mode].behaviour in (Behaviour.LAND, Behaviour.RTL)
-        idle = (
-            self.takeoff_alt_enu_m is None
-            and min(landed_for, now_s - self.armed_at_s) >= self.config.disarm_delay_s
-        )
+        idle = self.takeoff_alt_enu_m is None and min(
+            landed_for, now_s - self.armed_at_s
+        ) >= self.params.get("DISARM_DELAY")
         if (landing and landed_for >= 1.0) or idle:
             self._disarm(now_s)
 
     def _guided_failsafe(self, now_s: float, sample: VehicleSample) -> None:
-        lapsed = now_s - self.last_target_s > self.config.failsafe_timeout_s
+        self._companion_loss(now_s, sample)
+        lapsed = now_s - self.last_target_s > self.params.get("GUID_TIMEOUT")
         if self.target_has_velocity and lapsed and not self.failsafe_active:
             self.failsafe_active = True
             self.target_has_velocity = False
@@ -394,15 +432,44 @@ class Autopilot:
             )
             self._say(
                 m.MavSeverity.WARNING,
-                f"No target for {self.config.failsafe_timeout_s:g} s: holding position",
+                f"No target for {self.params.get('GUID_TIMEOUT'):g} s: holding position",
             )
+
+    def _companion_loss(self, now_s: float, sample: VehicleSample) -> None:
+        """The setpoint stream stopped for SIM_OFB_LOSS_T in the air: hold, land or RTL."""
+        timeout_s = self.params.get("SIM_OFB_LOSS_T")
+        if timeout_s <= 0 or self.setpoints_in_stream < 2 or sample.on_ground:
+            return
+        silent_s = now_s - self.last_target_s
+        if silent_s <= timeout_s:
+            return
+        action = FailsafeAction(int(self.params.get("SIM_OFB_LOSS_ACT")))
+        self.setpoints_in_stream = 0
+        self.failsafes += 1
+        self._say(
+            m.MavSeverity.CRITICAL, f"Failsafe: companion lost {silent_s:.1f} s, {action.name}"
+        )
+        self._events.append(
+            {"sysid": self.sysid, "event": "companion_loss", "action": action.name.lower(),
+             "silent_s": silent_s}
+        )  # fmt: skip
+        if action is FailsafeAction.HOLD:
+            self._actuators.set_target(
+                self.vehicle, position_enu_m=sample.p_enu_m, yaw_rad=sample.psi_rad
+            )
+            self.target_has_velocity = False
+            self.failsafe_active = True
+            return
+        mode = CopterMode.LAND if action is FailsafeAction.LAND else CopterMode.RTL
+        self.mode = mode
+        self._hold_enu_m = sample.p_enu_m.copy()
 
     def _land(self, sample: VehicleSample) -> None:
         height = sample.p_enu_m[2] - self.home.home_enu_m[2]
         speed = (
-            self.config.land_speed_high_m_s
-            if height > self.config.land_final_alt_m
-            else self.config.land_speed_m_s
+            self.params.get("LAND_SPEED_HIGH") / 100.0
+            if height > self.params.get("LAND_ALT_LOW") / 100.0
+            else self.params.get("LAND_SPEED") / 100.0
         )
         hold = self._hold_enu_m if self._hold_enu_m is not None else sample.p_enu_m
         self._actuators.set_target(
@@ -414,7 +481,7 @@ class Autopilot:
 
     def _rtl(self, sample: VehicleSample) -> None:
         home = self.home.home_enu_m
-        rtl_z = max(home[2] + self.config.rtl_alt_m, float(sample.p_enu_m[2]))
+        rtl_z = max(home[2] + self.params.get("RTL_ALT") / 100.0, float(sample.p_enu_m[2]))
         offset = home[:2] - sample.p_enu_m[:2]
         distance = float(np.hypot(*offset))
         if distance < 2.0:
@@ -427,7 +494,8 @@ class Autopilot:
         target[2] = rtl_z
         velocity = np.zeros(3)
         if not climbing:
-            velocity[:2] = offset / distance * min(self.config.rtl_speed_m_s, distance / 2.0)
+            speed_m_s = self.params.get("RTL_SPEED") / 100.0
+            velocity[:2] = offset / distance * min(speed_m_s, distance / 2.0)
         self._actuators.set_target(self.vehicle, position_enu_m=target, velocity_enu_m_s=velocity)
 
 
@@ -446,7 +514,15 @@ ARM_CHECKS: tuple[Check, ...] = (
     ),
     (
         lambda ap, ctx: (
-            ap._remote_id_error is None
+            ap.params.get("ARMING_CHECK") == 0 or ctx.now_s >= ap.params.get("SIM_PREARM_T")
+        ),
+        MavResult.FAILED,
+        "PreArm: Need Position Estimate",
+    ),
+    (
+        lambda ap, ctx: (
+            ap.params.get("ARMING_CHECK") == 0
+            or ap._remote_id_error is None
             or not ap.config.require_remote_id_to_arm
             or ap._remote_id_error(ctx.now_s) is None
         ),
@@ -466,55 +542,35 @@ TAKEOFF_CHECKS: tuple[Check, ...] = (
 )
 
 
-def _cmd_arm_disarm(ap: Autopilot, cmd: m.CommandLong, ctx: CommandContext) -> Outcome:
-    arm, force = cmd.params[0], cmd.params[1]
-    if arm == 1.0:
-        return ap.arm(ctx)
-    if arm == 0.0:
-        return ap.disarm(force == FORCE_DISARM_MAGIC, ctx)
-    return Outcome(MavResult.DENIED, f"Arm/disarm: param1 {arm} is neither 0 nor 1")
+# SET_POSITION_TARGET_LOCAL_NED frames ArduCopter accepts; body frames rotate by heading.
+_BODY_FRAMES = frozenset({8, 9})  # MAV_FRAME_BODY_NED, MAV_FRAME_BODY_OFFSET_NED
+_TARGET_FRAMES = frozenset({m.MavFrame.LOCAL_NED, m.MavFrame.LOCAL_OFFSET_NED, *_BODY_FRAMES})
 
 
-def _cmd_takeoff(ap: Autopilot, cmd: m.CommandLong, ctx: CommandContext) -> Outcome:
-    return ap.takeoff(cmd.params[6], ctx)
+def _yaw_rotate(v_frd: FloatArray, heading_rad: float) -> FloatArray:
+    """A body-frame (x forward, y right) vector into NED for a vehicle heading ``heading_rad``
+    (0 north, clockwise positive); z unchanged."""
+    c, s = math.cos(heading_rad), math.sin(heading_rad)
+    return np.array([c * v_frd[0] - s * v_frd[1], s * v_frd[0] + c * v_frd[1], v_frd[2]])
 
 
-def _cmd_set_mode(ap: Autopilot, cmd: m.CommandLong, ctx: CommandContext) -> Outcome:
-    if not int(cmd.params[0]) & m.MavModeFlag.CUSTOM_MODE_ENABLED:
-        return Outcome(MavResult.DENIED, "Set mode: only custom modes are supported")
-    return ap.set_mode(cmd.params[1], ctx)
-
-
-def _cmd_land(ap: Autopilot, cmd: m.CommandLong, ctx: CommandContext) -> Outcome:
-    return ap.set_mode(CopterMode.LAND, ctx)
-
-
-def _cmd_rtl(ap: Autopilot, cmd: m.CommandLong, ctx: CommandContext) -> Outcome:
-    return ap.set_mode(CopterMode.RTL, ctx)
-
-
-def _cmd_message_interval(ap: Autopilot, cmd: m.CommandLong, ctx: CommandContext) -> Outcome:
-    msg_id, interval_us = cmd.params[0], cmd.params[1]
-    if not (math.isfinite(msg_id) and math.isfinite(interval_us)):
-        return Outcome(MavResult.DENIED, "Message interval: non-finite parameter")
-    if ctx.telemetry.set_interval(int(msg_id), interval_us):
-        return ACCEPTED
-    return Outcome(MavResult.FAILED, f"Message interval: message {int(msg_id)} not streamed")
-
-
-def _cmd_request_message(ap: Autopilot, cmd: m.CommandLong, ctx: CommandContext) -> Outcome:
-    msg_id = cmd.params[0]
-    if math.isfinite(msg_id) and ctx.telemetry.request_once(int(msg_id)):
-        return ACCEPTED
-    return Outcome(MavResult.FAILED, f"Request message: {msg_id} not available")
-
-
-COMMAND_HANDLERS: dict[int, Handler] = {
-    MavCmd.COMPONENT_ARM_DISARM: _cmd_arm_disarm,
-    MavCmd.NAV_TAKEOFF: _cmd_takeoff,
-    MavCmd.DO_SET_MODE: _cmd_set_mode,
-    MavCmd.NAV_LAND: _cmd_land,
-    MavCmd.NAV_RETURN_TO_LAUNCH: _cmd_rtl,
-    MavCmd.SET_MESSAGE_INTERVAL: _cmd_message_interval,
-    MavCmd.REQUEST_MESSAGE: _cmd_request_message,
-}
+__all__ = [
+    "ACCEPTED",
+    "ARM_CHECKS",
+    "COMMAND_HANDLERS",
+    "FORCE_DISARM_MAGIC",
+    "MODE_RULES",
+    "TAKEOFF_CHECKS",
+    "Actuators",
+    "Autopilot",
+    "AutopilotConfig",
+    "Behaviour",
+    "CommandContext",
+    "FailsafeAction",
+    "HomeFrame",
+    "Mission",
+    "ModeRule",
+    "Outcome",
+    "TelemetryControl",
+    "VehicleSample",
+]

@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 
 from ridsafe.common import codec, rng, topics
 from ridsafe.common import messages as m
+from ridsafe.common import protocol_messages as pm
 from ridsafe.common.errors import ClockError
 from ridsafe.common.logsink import LogSink, NullSink
 from ridsafe.common.scenario import Scenario
@@ -248,6 +249,8 @@ class SimBackend:
         samples = self._samples()
         for autopilot, sample in zip(self.autopilots, samples, strict=True):
             autopilot.update(now_s, sample)
+            for event in autopilot.take_events():
+                self.sink.log(topics.SIM_EVENTS, now_s, event)
         self._spoofer_broadcast(now_s)
         self._carry_air(now_s)
         self._periodic(now_s)
@@ -324,7 +327,7 @@ class SimBackend:
             )
             return
         autopilot = self.autopilots[i]
-        if isinstance(msg, m.CommandLong):
+        if isinstance(msg, m.CommandLong | pm.CommandInt):
             self._command(endpoint, received, msg, ctx)
         elif isinstance(msg, m.SetMode):
             ack = autopilot.handle_set_mode(msg, ctx)
@@ -333,7 +336,11 @@ class SimBackend:
             autopilot.handle_position_target(msg, ctx)
 
     def _command(
-        self, endpoint: _Port, received: codec.Received, cmd: m.CommandLong, ctx: CommandContext
+        self,
+        endpoint: _Port,
+        received: codec.Received,
+        cmd: m.CommandLong | pm.CommandInt,
+        ctx: CommandContext,
     ) -> None:
         if cmd.target_component == TRANSPONDER_COMPONENT:
             self.counters.transponder_commands += 1

@@ -36,6 +36,8 @@ becomes arrays (truth interpolation) in :mod:`ridsafe.tools.analysis.run_arrays`
   message type): how long the GCS needed once it could in principle localise. Negative when
   it alerted earlier; None without alert or without such receptions.
 - ``false_alerts``: ``raised`` alerts for any uas_id but the spoofer's serial.
+- ``autopilot_failsafes``: companion-loss failsafes the sim's autopilots took
+  (``/sim/events``); 0 in a healthy run.
 - ``wall_clock_s``: ``/run/end``'s wall clock; None when the run has no end record.
 - ``gcs_compute_s``: sum of ``/gcs/cycle`` ``compute_ms`` / 1000; ``gcs_update_p99_ms``
   and ``planner_decision_p99_ms`` (``/companion/decisions``): 99th percentile of
@@ -95,6 +97,7 @@ METRIC_KEYS: tuple[str, ...] = (
     "gcs_compute_s",
     "gcs_update_p99_ms",
     "planner_decision_p99_ms",
+    "autopilot_failsafes",
 )
 
 
@@ -298,4 +301,5 @@ def compute_metrics(
         else None,
         "gcs_update_p99_ms": _percentile(run.gcs_compute_ms, 99.0),
         "planner_decision_p99_ms": _percentile(run.decision_compute_ms, 99.0),
+        "autopilot_failsafes": run.autopilot_failsafes,
     }
