@@ -15,9 +15,12 @@ Frames: the vehicle's local NED frame is the tangent frame at its home (where it
 start); the sim's truth is the scenario ENU frame. ``HomeFrame`` maps between them exactly
 (both are rigid transforms of ECEF).
 
-Behaviour that ArduCopter has and this does not: no RC input (STABILIZE and ALT_HOLD hold
-position in the air, like LOITER), no parameters, no missions except the scripted one a
-``Mission`` provides in AUTO (the spoofer's straight line).
+Parameters are ArduCopter's names (:mod:`.param_table`, read at each use, so PARAM_SET acts
+at once); uploaded missions fly in AUTO (:mod:`.auto_mission`), the spoofer's scripted
+``Mission`` overrides them. Companion loss: a SET_POSITION_TARGET stream that stops for
+``SIM_OFB_LOSS_T`` in GUIDED, in the air, makes the vehicle LAND (or RTL / hold), logged
+as an event. Behaviour that ArduCopter has and this does not: no RC input (STABILIZE and
+ALT_HOLD hold position in the air, like LOITER), no geofence, no terrain.
 """
 
 from __future__ import annotations
@@ -26,7 +29,6 @@ import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from enum import Enum
 from typing import Protocol
 
 import numpy as np
@@ -37,6 +39,7 @@ from ridsafe.common import messages as m
 from ridsafe.common import protocol_messages as pm
 from ridsafe.common.messages import CopterMode, MavResult
 from ridsafe.common.messages import PositionTargetMask as Mask
+from ridsafe.sim_backend.auto_mission import AutoMission
 from ridsafe.sim_backend.commands import (
     ACCEPTED,
     COMMAND_HANDLERS,
@@ -49,8 +52,23 @@ from ridsafe.sim_backend.commands import (
     VehicleSample,
 )
 from ridsafe.sim_backend.home_frame import HomeFrame
+from ridsafe.sim_backend.mission_protocol import MissionStore
+from ridsafe.sim_backend.mode_rules import (
+    ARM_CHECKS,
+    MODE_RULES,
+    TAKEOFF_CHECKS,
+    Behaviour,
+    ModeRule,
+)
 from ridsafe.sim_backend.param_table import FailsafeAction, ParamStore
-from ridsafe.sim_backend.targets import POSITION_BITS, VELOCITY_BITS, mask_rejection
+from ridsafe.sim_backend.targets import (
+    BODY_FRAMES,
+    POSITION_BITS,
+    TARGET_FRAMES,
+    VELOCITY_BITS,
+    mask_rejection,
+    yaw_rotate,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -81,39 +99,6 @@ class AutopilotConfig:
     prearm_delay_s: float = 0.0
 
 
-class Behaviour(Enum):
-    """What a mode makes the vehicle do once it is in the air."""
-
-    GUIDED = "follow targets"
-    HOLD = "hold position"
-    LAND = "descend and disarm"
-    RTL = "return home and land"
-    MISSION = "fly the scripted mission"
-
-
-@dataclass(frozen=True)
-class ModeRule:
-    """``guided_flag``: HEARTBEAT.base_mode carries MAV_MODE_FLAG_GUIDED_ENABLED (as
-    ArduCopter sets it for its position-controlled modes)."""
-
-    armable: bool
-    accepts_targets: bool
-    behaviour: Behaviour
-    guided_flag: bool
-
-
-MODE_RULES: dict[CopterMode, ModeRule] = {
-    CopterMode.STABILIZE: ModeRule(True, False, Behaviour.HOLD, guided_flag=False),
-    CopterMode.ALT_HOLD: ModeRule(True, False, Behaviour.HOLD, guided_flag=False),
-    CopterMode.GUIDED: ModeRule(True, True, Behaviour.GUIDED, guided_flag=True),
-    CopterMode.LOITER: ModeRule(True, False, Behaviour.HOLD, guided_flag=True),
-    CopterMode.AUTO: ModeRule(True, False, Behaviour.MISSION, guided_flag=True),
-    CopterMode.RTL: ModeRule(False, False, Behaviour.RTL, guided_flag=True),
-    CopterMode.LAND: ModeRule(False, False, Behaviour.LAND, guided_flag=False),
-    CopterMode.BRAKE: ModeRule(True, False, Behaviour.HOLD, guided_flag=True),
-}
-
-
 class Actuators(Protocol):
     """What the autopilot may do to its vehicle (``OctorotorFleet`` provides it)."""
 
@@ -137,9 +122,6 @@ class Mission(Protocol):
         ...
 
 
-Check = tuple[Callable[["Autopilot", CommandContext], bool], MavResult, str]
-
-
 class Autopilot:
     """Modes, arming, commands, GUIDED targets and failsafes of one vehicle (index ``vehicle``)."""
 
@@ -156,12 +138,12 @@ class Autopilot:
         self.sysid = sysid
         self.vehicle = vehicle
         self.home = home
-        self.config = config if config is not None else AutopilotConfig()
+        self.config: AutopilotConfig = config if config is not None else AutopilotConfig()
         self.mission = mission
-        self._actuators = actuators
-        self._remote_id_error = remote_id_error
-        self.mode = CopterMode.STABILIZE
-        self.armed = False
+        self.actuators = actuators
+        self._remote_id_error: Callable[[float], str | None] | None = remote_id_error
+        self.mode: CopterMode = CopterMode.STABILIZE
+        self.armed: bool = False
         self.takeoff_alt_enu_m: float | None = None
         self.last_target_s = -math.inf
         self.target_has_velocity = False
@@ -169,7 +151,9 @@ class Autopilot:
         self.landed_since_s: float | None = None
         self.failsafe_active = False
         self.rejected_targets = 0
-        self.params = ParamStore(self.config, sysid)
+        self.params: ParamStore = ParamStore(self.config, sysid)
+        self.missions = MissionStore()
+        self.auto: AutoMission | None = None
         self.setpoints_in_stream = 0
         self.failsafes = 0
         self._events: list[dict[str, object]] = []
@@ -248,8 +232,12 @@ class Autopilot:
             return Outcome(MavResult.FAILED, f"Mode change to {int(custom_mode)} failed")
         if mode not in MODE_RULES:
             return Outcome(MavResult.FAILED, f"Mode change to {mode.name} failed")
-        if MODE_RULES[mode].behaviour is Behaviour.MISSION and self.mission is None:
-            return Outcome(MavResult.FAILED, "Mode change to AUTO failed: no mission")
+        auto = MODE_RULES[mode].behaviour is Behaviour.MISSION and self.mission is None
+        if auto and mode is not self.mode:
+            items = self.missions.nav_items()
+            if not items:
+                return Outcome(MavResult.FAILED, "Mode change to AUTO failed: no mission")
+            self.auto = AutoMission(items, max(self.missions.current_seq, 1))
         if mode is not self.mode:
             self.mode = mode
             self.failsafe_active = False
@@ -268,10 +256,10 @@ class Autopilot:
         self.armed_at_s = ctx.now_s
         self.takeoff_alt_enu_m = None
         self._hold_enu_m = ctx.sample.p_enu_m.copy()
-        self._actuators.set_target(
+        self.actuators.set_target(
             self.vehicle, position_enu_m=ctx.sample.p_enu_m, yaw_rad=ctx.sample.psi_rad
         )
-        self._actuators.arm(self.vehicle)
+        self.actuators.arm(self.vehicle)
         self._say(m.MavSeverity.INFO, "Arming motors")
         return ACCEPTED
 
@@ -286,7 +274,7 @@ class Autopilot:
     def _disarm(self, now_s: float) -> None:
         self.armed = False
         self.takeoff_alt_enu_m = None
-        self._actuators.disarm(self.vehicle)
+        self.actuators.disarm(self.vehicle)
         self._say(m.MavSeverity.INFO, f"Disarming motors at {now_s:.1f} s")
 
     def takeoff(self, alt_rel_m: float, ctx: CommandContext) -> Outcome:
@@ -298,7 +286,7 @@ class Autopilot:
         self.takeoff_alt_enu_m = float(self.home.home_enu_m[2] + alt_rel_m)
         target = ctx.sample.p_enu_m.copy()
         target[2] = self.takeoff_alt_enu_m
-        self._actuators.set_target(self.vehicle, position_enu_m=target, yaw_rad=ctx.sample.psi_rad)
+        self.actuators.set_target(self.vehicle, position_enu_m=target, yaw_rad=ctx.sample.psi_rad)
         self.last_target_s = ctx.now_s
         self.target_has_velocity = False
         self._say(m.MavSeverity.INFO, f"Takeoff to {alt_rel_m:.1f} m")
@@ -319,21 +307,21 @@ class Autopilot:
         mask = Mask(msg.type_mask)
         position = velocity = None
         heading_rad = frames.wrap_pi(math.pi / 2 - ctx.sample.psi_rad)
-        body = msg.coordinate_frame in _BODY_FRAMES
+        body = msg.coordinate_frame in BODY_FRAMES
         if not mask & POSITION_BITS:
             p_ned = np.asarray(msg.p_ned_m, dtype=np.float64)
             if body:
-                p_ned = _yaw_rotate(p_ned, heading_rad)
+                p_ned = yaw_rotate(p_ned, heading_rad)
             if msg.coordinate_frame != m.MavFrame.LOCAL_NED:
                 p_ned = p_ned + self.home.enu_to_local_ned(ctx.sample.p_enu_m)
             position = self.home.local_ned_to_enu(p_ned)
         if not mask & VELOCITY_BITS:
             v_ned = np.asarray(msg.v_ned_m_s, dtype=np.float64)
-            velocity = self.home.vel_ned_to_enu(_yaw_rotate(v_ned, heading_rad) if body else v_ned)
+            velocity = self.home.vel_ned_to_enu(yaw_rotate(v_ned, heading_rad) if body else v_ned)
         yaw = None if mask & Mask.YAW_IGNORE else frames.wrap_pi(math.pi / 2 - msg.yaw_rad)
         if yaw is None:
             yaw = ctx.sample.psi_rad
-        self._actuators.set_target(
+        self.actuators.set_target(
             self.vehicle, position_enu_m=position, velocity_enu_m_s=velocity, yaw_rad=yaw
         )
         self.takeoff_alt_enu_m = None
@@ -362,7 +350,7 @@ class Autopilot:
         distance = float(np.max(np.abs(p_ned)))
         if distance > self.config.max_target_distance_m:
             return Outcome(MavResult.DENIED, f"Guided: {distance:.3g} m out of range")
-        self._actuators.set_target(
+        self.actuators.set_target(
             self.vehicle,
             position_enu_m=self.home.local_ned_to_enu(p_ned),
             yaw_rad=ctx.sample.psi_rad,
@@ -381,7 +369,7 @@ class Autopilot:
             return f"Target: mode {self.mode.name} is not GUIDED"
         if not self.armed or (ctx.sample.on_ground and self.takeoff_alt_enu_m is None):
             return "Target: not flying (arm and take off first)"
-        if msg.coordinate_frame not in _TARGET_FRAMES:
+        if msg.coordinate_frame not in TARGET_FRAMES:
             return f"Target: frame {msg.coordinate_frame} unsupported"
         return mask_rejection(
             msg, self.config.max_target_distance_m, self.config.max_target_speed_m_s
@@ -406,15 +394,20 @@ class Autopilot:
             self._rtl(sample)
         elif behaviour is Behaviour.MISSION and self.mission is not None:
             position, velocity = self.mission.target(now_s)
-            self._actuators.set_target(
+            self.actuators.set_target(
                 self.vehicle, position_enu_m=position, velocity_enu_m_s=velocity
             )
+        elif behaviour is Behaviour.MISSION and self.auto is not None:
+            self.auto.update(sample, self)
 
     def _on_ground(self, now_s: float) -> None:
         if self.landed_since_s is None:
             self.landed_since_s = now_s
         landed_for = now_s - self.landed_since_s
-        landing = MODE_RULES[self.mode].behaviour in (Behaviour.LAND, Behaviour.RTL)
+        behaviour = MODE_RULES[self.mode].behaviour
+        landing = behaviour in (Behaviour.LAND, Behaviour.RTL) or (
+            behaviour is Behaviour.MISSION and self.auto is not None and self.auto.landing
+        )
         idle = self.takeoff_alt_enu_m is None and min(
             landed_for, now_s - self.armed_at_s
         ) >= self.params.get("DISARM_DELAY")
@@ -427,7 +420,7 @@ class Autopilot:
         if self.target_has_velocity and lapsed and not self.failsafe_active:
             self.failsafe_active = True
             self.target_has_velocity = False
-            self._actuators.set_target(
+            self.actuators.set_target(
                 self.vehicle, position_enu_m=sample.p_enu_m, yaw_rad=sample.psi_rad
             )
             self._say(
@@ -454,7 +447,7 @@ class Autopilot:
              "silent_s": silent_s}
         )  # fmt: skip
         if action is FailsafeAction.HOLD:
-            self._actuators.set_target(
+            self.actuators.set_target(
                 self.vehicle, position_enu_m=sample.p_enu_m, yaw_rad=sample.psi_rad
             )
             self.target_has_velocity = False
@@ -464,6 +457,16 @@ class Autopilot:
         self.mode = mode
         self._hold_enu_m = sample.p_enu_m.copy()
 
+    def land_here(self, sample: VehicleSample, hold_enu_m: FloatArray | None = None) -> None:
+        """One tick of LAND's descent (also AUTO's NAV_LAND), over ``hold_enu_m`` if given."""
+        if hold_enu_m is not None:
+            self._hold_enu_m = hold_enu_m
+        self._land(sample)
+
+    def return_home(self, sample: VehicleSample) -> None:
+        """One tick of RTL (also AUTO's NAV_RETURN_TO_LAUNCH)."""
+        self._rtl(sample)
+
     def _land(self, sample: VehicleSample) -> None:
         height = sample.p_enu_m[2] - self.home.home_enu_m[2]
         speed = (
@@ -472,7 +475,7 @@ class Autopilot:
             else self.params.get("LAND_SPEED") / 100.0
         )
         hold = self._hold_enu_m if self._hold_enu_m is not None else sample.p_enu_m
-        self._actuators.set_target(
+        self.actuators.set_target(
             self.vehicle,
             position_enu_m=np.array([hold[0], hold[1], sample.p_enu_m[2]]),
             velocity_enu_m_s=np.array([0.0, 0.0, -speed]),
@@ -496,63 +499,10 @@ class Autopilot:
         if not climbing:
             speed_m_s = self.params.get("RTL_SPEED") / 100.0
             velocity[:2] = offset / distance * min(speed_m_s, distance / 2.0)
-        self._actuators.set_target(self.vehicle, position_enu_m=target, velocity_enu_m_s=velocity)
+        self.actuators.set_target(self.vehicle, position_enu_m=target, velocity_enu_m_s=velocity)
 
 
 # --- the tables -------------------------------------------------------------------------------
-
-ARM_CHECKS: tuple[Check, ...] = (
-    (
-        lambda ap, ctx: MODE_RULES[ap.mode].armable,
-        MavResult.FAILED,
-        "Arm: Mode not armable",
-    ),
-    (
-        lambda ap, ctx: ctx.sample.on_ground,
-        MavResult.FAILED,
-        "Arm: vehicle is not on the ground",
-    ),
-    (
-        lambda ap, ctx: (
-            ap.params.get("ARMING_CHECK") == 0 or ctx.now_s >= ap.params.get("SIM_PREARM_T")
-        ),
-        MavResult.FAILED,
-        "PreArm: Need Position Estimate",
-    ),
-    (
-        lambda ap, ctx: (
-            ap.params.get("ARMING_CHECK") == 0
-            or ap._remote_id_error is None
-            or not ap.config.require_remote_id_to_arm
-            or ap._remote_id_error(ctx.now_s) is None
-        ),
-        MavResult.FAILED,
-        "PreArm: Remote ID not ready",
-    ),
-)
-
-TAKEOFF_CHECKS: tuple[Check, ...] = (
-    (lambda ap, ctx: ap.armed, MavResult.FAILED, "Takeoff: vehicle is disarmed"),
-    (
-        lambda ap, ctx: MODE_RULES[ap.mode].accepts_targets,
-        MavResult.FAILED,
-        "Takeoff: mode is not GUIDED",
-    ),
-    (lambda ap, ctx: ctx.sample.on_ground, MavResult.FAILED, "Takeoff: already flying"),
-)
-
-
-# SET_POSITION_TARGET_LOCAL_NED frames ArduCopter accepts; body frames rotate by heading.
-_BODY_FRAMES = frozenset({8, 9})  # MAV_FRAME_BODY_NED, MAV_FRAME_BODY_OFFSET_NED
-_TARGET_FRAMES = frozenset({m.MavFrame.LOCAL_NED, m.MavFrame.LOCAL_OFFSET_NED, *_BODY_FRAMES})
-
-
-def _yaw_rotate(v_frd: FloatArray, heading_rad: float) -> FloatArray:
-    """A body-frame (x forward, y right) vector into NED for a vehicle heading ``heading_rad``
-    (0 north, clockwise positive); z unchanged."""
-    c, s = math.cos(heading_rad), math.sin(heading_rad)
-    return np.array([c * v_frd[0] - s * v_frd[1], s * v_frd[0] + c * v_frd[1], v_frd[2]])
-
 
 __all__ = [
     "ACCEPTED",

@@ -5,12 +5,28 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+from numpy.typing import NDArray
+
 from ridsafe.common import messages as m
 from ridsafe.common.messages import PositionTargetMask as Mask
+
+FloatArray = NDArray[np.float64]
 
 POSITION_BITS = Mask.X_IGNORE | Mask.Y_IGNORE | Mask.Z_IGNORE
 VELOCITY_BITS = Mask.VX_IGNORE | Mask.VY_IGNORE | Mask.VZ_IGNORE
 ACCEL_BITS = Mask.AX_IGNORE | Mask.AY_IGNORE | Mask.AZ_IGNORE
+
+# SET_POSITION_TARGET_LOCAL_NED frames ArduCopter accepts; body frames rotate by heading.
+BODY_FRAMES = frozenset({8, 9})  # MAV_FRAME_BODY_NED, MAV_FRAME_BODY_OFFSET_NED
+TARGET_FRAMES = frozenset({m.MavFrame.LOCAL_NED, m.MavFrame.LOCAL_OFFSET_NED, *BODY_FRAMES})
+
+
+def yaw_rotate(v_frd: FloatArray, heading_rad: float) -> FloatArray:
+    """A body-frame (x forward, y right) vector into NED for a vehicle heading ``heading_rad``
+    (0 north, clockwise positive); z unchanged."""
+    c, s = math.cos(heading_rad), math.sin(heading_rad)
+    return np.array([c * v_frd[0] - s * v_frd[1], s * v_frd[0] + c * v_frd[1], v_frd[2]])
 
 
 def _used(mask: Mask, bits: Mask) -> bool | None:

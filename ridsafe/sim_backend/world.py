@@ -22,7 +22,7 @@ from __future__ import annotations
 import enum
 import logging
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,6 +44,7 @@ from ridsafe.sim_backend.autopilot import (
 )
 from ridsafe.sim_backend.config import SimConfig
 from ridsafe.sim_backend.dynamics import EULER, IDX_PSI, POS_ENU, STATE_SIZE, VEL_ENU
+from ridsafe.sim_backend.link_protocols import LINK_MESSAGES, LinkResponder, timesync_answer
 from ridsafe.sim_backend.radio import RadioChannel, Reception, Transmission
 from ridsafe.sim_backend.spoofer import SpooferBroadcaster, StraightLineMission
 from ridsafe.sim_backend.telemetry import FleetSnapshot, TelemetrySchedule
@@ -82,6 +83,7 @@ class _Port:
     sysid: int
     kind: EndpointKind
     schedule: TelemetrySchedule
+    responder: LinkResponder
 
     @property
     def name(self) -> str:
@@ -222,8 +224,10 @@ class SimBackend:
             senders[TRANSPONDER_COMPONENT] = codec.MavlinkLink(sysid, TRANSPONDER_COMPONENT)
         link = codec.MavlinkLink(sysid, AUTOPILOT_COMPONENT)
         endpoint = self.shell.add(Endpoint(endpoint_name(sysid, kind), link, senders=senders))
-        schedule = TelemetrySchedule(self.config.telemetry_hz.by_id())
-        return _Port(endpoint, sysid, kind, schedule)
+        rates = self.config.telemetry_hz
+        schedule = TelemetrySchedule(rates.by_id(), rates.initial_by_id())
+        serial = 1 if kind is EndpointKind.COMPANION else 0  # SRx_ parameters of the link
+        return _Port(endpoint, sysid, kind, schedule, LinkResponder(sysid, serial))
 
     def _launch_spoofer(self, i: int) -> None:
         """The spoofer starts airborne, armed, flying its line in AUTO."""
@@ -312,6 +316,11 @@ class SimBackend:
             if frame is not None:
                 self._pending_air.append(Transmission(self.t_s, i, frame))
             return
+        if isinstance(msg, pm.Timesync):
+            answer = timesync_answer(msg, self.t_s)
+            if answer is not None:
+                self._send(endpoint, answer)
+            return
         target = getattr(msg, "target_system", None)
         if target is None:
             return  # heartbeats and other broadcasts from the peer: nothing to do
@@ -334,6 +343,10 @@ class SimBackend:
             self._send(endpoint, _addressed(ack, received))
         elif isinstance(msg, m.SetPositionTargetLocalNed):
             autopilot.handle_position_target(msg, ctx)
+        elif isinstance(msg, LINK_MESSAGES):
+            client = (received.src_system, received.src_component)
+            for out in endpoint.responder.handle(msg, autopilot, endpoint.schedule, ctx, client):
+                self._send(endpoint, out)
 
     def _command(
         self,
@@ -394,6 +407,7 @@ class SimBackend:
                     self.fleet.state,
                     self.homes,
                     self.scenario.origin,
+                    self.fleet.on_ground,
                 )
             for msg_id in due:
                 self._send(endpoint, self._telemetry(msg_id, i, snapshot))
@@ -406,10 +420,7 @@ class SimBackend:
                     self._send(endpoint, transponder.arm_status(now_s), transponder=True)
 
     def _telemetry(self, msg_id: int, i: int, snapshot: FleetSnapshot) -> m.Message:
-        if msg_id == telemetry.HEARTBEAT:
-            return self.autopilots[i].heartbeat()
-        builder = _TELEMETRY_BUILDERS[msg_id]
-        return builder(snapshot, i)
+        return telemetry.BUILDERS[msg_id](snapshot, i, self.autopilots[i])
 
     def _endpoints_of(self, sysid: int) -> list[_Port]:
         return [e for e in self.endpoints.values() if e.sysid == sysid]
@@ -441,16 +452,6 @@ class SimBackend:
 
     def link_counters(self) -> dict[str, codec.LinkCounters]:
         return self.shell.link_counters()
-
-
-_TELEMETRY_BUILDERS: dict[int, Callable[[FleetSnapshot, int], m.Message]] = {
-    telemetry.GLOBAL_POSITION_INT: FleetSnapshot.global_position_int,
-    telemetry.LOCAL_POSITION_NED: FleetSnapshot.local_position_ned,
-    telemetry.ATTITUDE: FleetSnapshot.attitude,
-    telemetry.SYS_STATUS: FleetSnapshot.sys_status,
-    telemetry.SYSTEM_TIME: FleetSnapshot.system_time,
-    telemetry.HOME_POSITION: FleetSnapshot.home_position,
-}
 
 
 def _addressed(ack: m.CommandAck, received: codec.Received) -> m.CommandAck:
