@@ -21,8 +21,8 @@ from tests.companion.test_companion_core import Flight, make_scenario
 
 
 def _cut_in_cruise(action: FailsafeAction | None = None) -> Flight:
-    autopilot = AutopilotConfig() if action is None else AutopilotConfig(
-        companion_loss_action=action
+    autopilot = (
+        AutopilotConfig() if action is None else AutopilotConfig(companion_loss_action=action)
     )
     flight = Flight(make_scenario(1), sim_config=SimConfig(autopilot=autopilot))
     flight.sim.sink = MemorySink()
