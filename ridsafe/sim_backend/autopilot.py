@@ -71,6 +71,7 @@ from ridsafe.sim_backend.targets import (
 )
 
 logger = logging.getLogger(__name__)
+PREARM_REPORT_PERIOD_S = 30.0
 
 FloatArray = NDArray[np.float64]
 
@@ -156,6 +157,7 @@ class Autopilot:
         self.auto: AutoMission | None = None
         self.setpoints_in_stream = 0
         self.failsafes = 0
+        self._next_prearm_text_s = 0.0
         self._events: list[dict[str, object]] = []
         self._hold_enu_m: FloatArray | None = None
         self._status: list[m.StatusText] = []
@@ -232,6 +234,10 @@ class Autopilot:
             return Outcome(MavResult.FAILED, f"Mode change to {int(custom_mode)} failed")
         if mode not in MODE_RULES:
             return Outcome(MavResult.FAILED, f"Mode change to {mode.name} failed")
+        if MODE_RULES[mode].guided_flag and ctx.now_s < self.params.get("SIM_PREARM_T"):
+            return Outcome(
+                MavResult.FAILED, f"Mode change to {mode.name} failed: requires position"
+            )
         auto = MODE_RULES[mode].behaviour is Behaviour.MISSION and self.mission is None
         if auto and mode is not self.mode:
             items = self.missions.nav_items()
@@ -380,6 +386,7 @@ class Autopilot:
     def update(self, now_s: float, sample: VehicleSample) -> None:
         """Mode behaviour, failsafe, land detection and auto-disarm."""
         if not self.armed:
+            self._prearm_report(now_s)
             return
         if sample.on_ground:
             self._on_ground(now_s)
@@ -399,6 +406,12 @@ class Autopilot:
             )
         elif behaviour is Behaviour.MISSION and self.auto is not None:
             self.auto.update(sample, self)
+
+    def _prearm_report(self, now_s: float) -> None:
+        """Disarmed without a position estimate: say so every 30 s, as ArduCopter does."""
+        if now_s < self.params.get("SIM_PREARM_T") and now_s >= self._next_prearm_text_s:
+            self._next_prearm_text_s = now_s + PREARM_REPORT_PERIOD_S
+            self._say(m.MavSeverity.CRITICAL, "PreArm: Need Position Estimate")
 
     def _on_ground(self, now_s: float) -> None:
         if self.landed_since_s is None:

@@ -38,7 +38,8 @@ class Behaviour(Enum):
 @dataclass(frozen=True)
 class ModeRule:
     """``guided_flag``: HEARTBEAT.base_mode carries MAV_MODE_FLAG_GUIDED_ENABLED (as
-    ArduCopter sets it for its position-controlled modes)."""
+    ArduCopter sets it for its position-controlled modes); these modes also need a position
+    estimate, so they are refused during the pre-arm period (``SIM_PREARM_T``)."""
 
     armable: bool
     accepts_targets: bool
