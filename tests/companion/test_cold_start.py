@@ -26,7 +26,7 @@ def test_companion_waits_out_the_prearm_period_then_flies_to_its_goal_and_lands(
     flight.run(15.0)
     assert companion.phase in (Phase.SET_GUIDED, Phase.ARM)
     assert flight.events(1, "waiting_prearm")
-    texts = [e["detail"] for e in flight.events(1, "autopilot_text")]
+    texts = [str(e["detail"]) for e in flight.events(1, "autopilot_text")]
     assert any("PreArm: Need Position Estimate" in t for t in texts)
     flight.run_until(lambda: companion.phase is Phase.DONE, max_s=150.0)
     assert not flight.events(1, "command_failed")
