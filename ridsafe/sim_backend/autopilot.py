@@ -95,8 +95,8 @@ class AutopilotConfig:
     # this long in GUIDED, in the air, triggers ``companion_loss_action`` (0 disables).
     companion_loss_timeout_s: float = 10.0  # SIM_OFB_LOSS_T
     companion_loss_action: FailsafeAction = FailsafeAction.LAND  # SIM_OFB_LOSS_ACT
-    # No position estimate for this long after start: arming refused with "PreArm: Need
-    # Position Estimate", as a real ArduCopter does for its first ~40 s (SIM_PREARM_T).
+    # No position estimate for this long after start (SIM_PREARM_T): arming refused with
+    # "Arm: Need Position Estimate", "PreArm: ..." every 30 s, as a real ArduCopter's ~40 s.
     prearm_delay_s: float = 0.0
 
 
@@ -234,10 +234,6 @@ class Autopilot:
             return Outcome(MavResult.FAILED, f"Mode change to {int(custom_mode)} failed")
         if mode not in MODE_RULES:
             return Outcome(MavResult.FAILED, f"Mode change to {mode.name} failed")
-        if MODE_RULES[mode].guided_flag and ctx.now_s < self.params.get("SIM_PREARM_T"):
-            return Outcome(
-                MavResult.FAILED, f"Mode change to {mode.name} failed: requires position"
-            )
         auto = MODE_RULES[mode].behaviour is Behaviour.MISSION and self.mission is None
         if auto and mode is not self.mode:
             items = self.missions.nav_items()

@@ -38,8 +38,8 @@ class Behaviour(Enum):
 @dataclass(frozen=True)
 class ModeRule:
     """``guided_flag``: HEARTBEAT.base_mode carries MAV_MODE_FLAG_GUIDED_ENABLED (as
-    ArduCopter sets it for its position-controlled modes); these modes also need a position
-    estimate, so they are refused during the pre-arm period (``SIM_PREARM_T``)."""
+    ArduCopter sets it for its position-controlled modes). As on ArduCopter, a disarmed
+    vehicle may enter them before it has a position estimate (mode checks apply when armed)."""
 
     armable: bool
     accepts_targets: bool
@@ -75,7 +75,7 @@ ARM_CHECKS: tuple[Check, ...] = (
             ap.params.get("ARMING_CHECK") == 0 or ctx.now_s >= ap.params.get("SIM_PREARM_T")
         ),
         MavResult.FAILED,
-        "PreArm: Need Position Estimate",
+        "Arm: Need Position Estimate",
     ),
     (
         lambda ap, ctx: (

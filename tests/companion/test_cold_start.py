@@ -24,10 +24,11 @@ def test_companion_waits_out_the_prearm_period_then_flies_to_its_goal_and_lands(
     flight = Flight(make_scenario(1), LANDING, sim_config=LIKE_ARDUCOPTER)
     companion = flight.companions[1]
     flight.run(15.0)
-    assert companion.phase in (Phase.SET_GUIDED, Phase.ARM)
+    assert companion.phase is Phase.ARM  # GUIDED is accepted disarmed, as on ArduCopter
     assert flight.events(1, "waiting_prearm")
     texts = [str(e["detail"]) for e in flight.events(1, "autopilot_text")]
-    assert any("PreArm: Need Position Estimate" in t for t in texts)
+    assert "PreArm: Need Position Estimate" in texts  # every 30 s while disarmed
+    assert "Arm: Need Position Estimate" in texts  # the answer to each refused arm
     flight.run_until(lambda: companion.phase is Phase.DONE, max_s=150.0)
     assert not flight.events(1, "command_failed")
     assert not flight.sim.truth().armed[0]
