@@ -69,5 +69,9 @@ def test_mavsdk_flies_the_sim_like_an_arducopter() -> None:
             _until(lambda: not telemetry.armed(), 90.0, "landed and disarmed")
             assert height_m(backend) < 0.3
             assert telemetry.landed_state() == LandedState.ON_GROUND
+            # Left in LAND (not armable on ArduCopter): MAVSDK changes mode and arms again.
+            action.arm()
+            _until(telemetry.armed, 10.0, "armed again after LAND")
+            action.disarm()
         finally:
             sdk.destroy()
