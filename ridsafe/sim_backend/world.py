@@ -10,7 +10,9 @@ channel between the transponders. It speaks MAVLink bytes on named endpoints:
 
 A runner (UDP, lockstep) maps endpoint names to sockets or to in-memory peers. Each call:
 
-1. parse inbound bytes per endpoint; route commands, setpoints and RID messages;
+1. parse inbound bytes per endpoint; route commands (COMMAND_LONG / COMMAND_INT), setpoints,
+   RID messages, and the ground-station protocols (parameters, missions, data streams,
+   TIMESYNC: :mod:`.link_protocols`, one ``LinkResponder`` per endpoint);
 2. advance physics and controllers of all vehicles to ``now_s`` (one compiled call);
 3. run every autopilot's mode logic; let the spoofer broadcast;
 4. carry this tick's RID frames over the radio to the other transponders;
