@@ -67,6 +67,23 @@ def arm(master: mavutil.mavfile, timeout_s: float) -> None:
     raise TimeoutError(f"arming refused for {timeout_s:.0f} s")
 
 
+def arm_and_take_off(master: mavutil.mavfile, alt_m: float, timeout_s: float) -> bool:
+    """Arm and take off; a take-off refused just after arming (the autopilot still settling,
+    or it disarmed again) is retried from arming until ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        arm(master, max(deadline - time.monotonic(), 1.0))
+        master.mav.command_long_send(
+            master.target_system, 1, mavutil.mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 0,
+            alt_m,
+        )  # fmt: skip
+        if wait_ack(master, mavutil.mavlink.MAV_CMD_NAV_TAKEOFF) == 0:
+            return True
+        text = master.recv_match(type="STATUSTEXT", blocking=True, timeout=2.0)
+        print(f"takeoff refused: {text.text if text else 'no reason given'}; retrying")
+    return False
+
+
 def local_position(master: mavutil.mavfile) -> mavutil.mavlink.MAVLink_message:
     """The newest LOCAL_POSITION_NED (drains older ones queued in the socket)."""
     msg = master.recv_match(type="LOCAL_POSITION_NED", blocking=True, timeout=5.0)
@@ -99,11 +116,7 @@ def main() -> int:
     print(f"heartbeat from system {master.target_system}, type {heartbeat.type}")
     request_streams(master)
     set_guided(master, 30.0)
-    arm(master, args.arm_timeout)
-    master.mav.command_long_send(
-        master.target_system, 1, mavutil.mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 0, args.alt
-    )
-    if wait_ack(master, mavutil.mavlink.MAV_CMD_NAV_TAKEOFF) != 0:
+    if not arm_and_take_off(master, args.alt, args.arm_timeout):
         print("takeoff rejected", file=sys.stderr)
         return 1
     deadline = time.monotonic() + args.timeout
