@@ -6,7 +6,9 @@ Start the sim first (``ridsafe sim``), then:
     python examples/fly_guided.py --vehicle 2
 
 Vehicle i streams to udpin:127.0.0.1:(14550 + 10 (i - 1)), exactly like ArduPilot SITL
-instance i - 1, so this script works unchanged against ArduCopter SITL.
+instance i - 1, so this script works unchanged against ArduCopter SITL: it asks for the
+telemetry it reads (a real ArduCopter streams nothing unasked), and retries arming while
+the autopilot is still starting ("Arm: Need Position Estimate" for ~40 s after boot).
 """
 
 from __future__ import annotations
@@ -30,6 +32,58 @@ def wait_ack(master: mavutil.mavfile, command: int, timeout_s: float = 10.0) -> 
     raise TimeoutError(f"no COMMAND_ACK for command {command}")
 
 
+def request_streams(master: mavutil.mavfile) -> None:
+    """LOCAL_POSITION_NED at 5 Hz (SET_MESSAGE_INTERVAL), POSITION streams as a fallback."""
+    master.mav.command_long_send(
+        master.target_system, 1, mavutil.mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
+        mavutil.mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED, 200_000, 0, 0, 0, 0, 0,
+    )  # fmt: skip
+    if wait_ack(master, mavutil.mavlink.MAV_CMD_SET_MESSAGE_INTERVAL) != 0:
+        master.mav.request_data_stream_send(
+            master.target_system, 1, mavutil.mavlink.MAV_DATA_STREAM_POSITION, 5, 1
+        )
+
+
+def set_guided(master: mavutil.mavfile, timeout_s: float) -> None:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        master.set_mode("GUIDED")
+        hb = master.recv_match(type="HEARTBEAT", blocking=True, timeout=2.0)
+        if hb is not None and master.flightmode == "GUIDED":
+            return
+    raise TimeoutError("the vehicle did not enter GUIDED")
+
+
+def arm(master: mavutil.mavfile, timeout_s: float) -> None:
+    """Arm, retrying every 2 s while the autopilot refuses (its STATUSTEXT says why)."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        master.arducopter_arm()
+        if wait_ack(master, mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM) == 0:
+            master.motors_armed_wait()
+            return
+        text = master.recv_match(type="STATUSTEXT", blocking=True, timeout=2.0)
+        print(f"arming refused: {text.text if text else 'no reason given'}; retrying")
+    raise TimeoutError(f"arming refused for {timeout_s:.0f} s")
+
+
+def arm_and_take_off(master: mavutil.mavfile, alt_m: float, timeout_s: float) -> bool:
+    """Arm and take off; a take-off refused just after arming (the autopilot still settling,
+    or it disarmed again) is retried from arming until ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        arm(master, max(deadline - time.monotonic(), 1.0))
+        master.mav.command_long_send(
+            master.target_system, 1, mavutil.mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 0,
+            alt_m,
+        )  # fmt: skip
+        if wait_ack(master, mavutil.mavlink.MAV_CMD_NAV_TAKEOFF) == 0:
+            return True
+        text = master.recv_match(type="STATUSTEXT", blocking=True, timeout=2.0)
+        print(f"takeoff refused: {text.text if text else 'no reason given'}; retrying")
+    return False
+
+
 def local_position(master: mavutil.mavfile) -> mavutil.mavlink.MAVLink_message:
     """The newest LOCAL_POSITION_NED (drains older ones queued in the socket)."""
     msg = master.recv_match(type="LOCAL_POSITION_NED", blocking=True, timeout=5.0)
@@ -48,6 +102,9 @@ def main() -> int:
     parser.add_argument("--north", type=float, default=100.0, help="target north of home (m)")
     parser.add_argument("--east", type=float, default=50.0, help="target east of home (m)")
     parser.add_argument("--timeout", type=float, default=300.0, help="give up after (s)")
+    parser.add_argument(
+        "--arm-timeout", type=float, default=120.0, help="keep retrying arming this long (s)"
+    )
     args = parser.parse_args()
 
     port = args.base_port + 10 * (args.vehicle - 1)
@@ -57,13 +114,9 @@ def main() -> int:
         print(f"no heartbeat on udpin:127.0.0.1:{port}", file=sys.stderr)
         return 1
     print(f"heartbeat from system {master.target_system}, type {heartbeat.type}")
-    master.set_mode("GUIDED")
-    master.arducopter_arm()
-    master.motors_armed_wait()
-    master.mav.command_long_send(
-        master.target_system, 1, mavutil.mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 0, args.alt
-    )
-    if wait_ack(master, mavutil.mavlink.MAV_CMD_NAV_TAKEOFF) != 0:
+    request_streams(master)
+    set_guided(master, 30.0)
+    if not arm_and_take_off(master, args.alt, args.arm_timeout):
         print("takeoff rejected", file=sys.stderr)
         return 1
     deadline = time.monotonic() + args.timeout

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from typing import TypeAlias
 
 from ridsafe.common.frozen import quick_init
+from ridsafe.common.protocol_messages import ProtocolMessage
 
 Vec3: TypeAlias = tuple[float, float, float]
 
@@ -535,4 +536,5 @@ Message: TypeAlias = (
     | SpoofAlert
     | LockstepTick
     | LockstepDone
+    | ProtocolMessage
 )

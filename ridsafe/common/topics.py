@@ -29,6 +29,7 @@ REGIONS = "/gcs/unsafe_regions"
 GCS_CYCLE = "/gcs/cycle"
 DETECTOR_STATS = "/gcs/detector_stats"
 APP_COUNTERS = "/app/counters"
+SIM_EVENTS = "/sim/events"
 
 # topic -> (writer, {field: description})
 TOPICS: dict[str, tuple[str, dict[str, str]]] = {
@@ -154,6 +155,10 @@ TOPICS: dict[str, tuple[str, dict[str, str]]] = {
             "threshold": "threshold",
             "decision": "statistic above threshold",
         },
+    ),
+    SIM_EVENTS: (
+        "sim backend, on each autopilot failsafe",
+        {"sysid": "vehicle", "event": "'companion_loss'", "action": "'hold', 'land' or 'rtl'"},
     ),
     APP_COUNTERS: (
         "any app, at the end and every 10 s",

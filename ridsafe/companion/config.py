@@ -116,6 +116,9 @@ class CompanionConfig:
     # -- commands and links -----------------------------------------------------------------
     command_timeout_s: float = 1.0  # resend a COMMAND_LONG with no COMMAND_ACK after this
     command_retries: int = 5  # resends (after a timeout or a rejection) before giving up
+    # GUIDED and ARM refused by an autopilot still starting (pre-arm checks): keep retrying
+    # for this long after the first attempt (a real ArduCopter needs ~40 s after boot).
+    prearm_give_up_s: float = 120.0
     autopilot_timeout_s: float = 3.0  # no autopilot HEARTBEAT for this long: link lost
     gcs_timeout_s: float = 5.0
     # -- Remote ID --------------------------------------------------------------------------
@@ -153,6 +156,7 @@ class CompanionConfig:
 
 _POSITIVE = (
     "climb_tolerance_m",
+    "prearm_give_up_s",
     "lookahead_s",
     "approach_radius_m",
     "arrival_radius_m",

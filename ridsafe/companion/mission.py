@@ -109,10 +109,15 @@ class FlightStatus:
 
 @dataclass(frozen=True, slots=True)
 class CommandSpec:
+    """``patient``: a refusal may be the autopilot still starting (a real ArduCopter refuses
+    GUIDED and arming until it has a position estimate, ~40 s): retry past
+    ``command_retries`` until ``prearm_give_up_s`` after the first attempt."""
+
     label: str
     command: MavCmd
     params: Params7
     required: bool = True
+    patient: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -156,9 +161,12 @@ PHASE_COMMANDS: dict[Phase, Callable[[CompanionConfig], tuple[CommandSpec, ...]]
             "set GUIDED",
             MavCmd.DO_SET_MODE,
             _params(MavModeFlag.CUSTOM_MODE_ENABLED, CopterMode.GUIDED),
+            patient=True,
         ),
     ),
-    Phase.ARM: lambda c: (CommandSpec("arm", MavCmd.COMPONENT_ARM_DISARM, _params(1.0)),),
+    Phase.ARM: lambda c: (
+        CommandSpec("arm", MavCmd.COMPONENT_ARM_DISARM, _params(1.0), patient=True),
+    ),
     Phase.TAKEOFF: lambda c: (
         CommandSpec("takeoff", MavCmd.NAV_TAKEOFF, _params(0, 0, 0, 0, 0, 0, c.takeoff_alt_m)),
     ),
@@ -250,6 +258,8 @@ class _Pending:
     attempts: int = 0
     awaiting_ack: bool = False
     deadline_s: float = -math.inf  # ACK timeout while awaiting, else earliest next attempt
+    first_sent_s: float | None = None
+    told_waiting: bool = False
 
 
 class CommandQueue:
@@ -302,11 +312,30 @@ class CommandQueue:
             self._event("command_timeout", "no COMMAND_ACK", pending)
         if pending.awaiting_ack or now_s < pending.deadline_s:
             return [], None
-        if pending.attempts >= self.config.command_attempts:
+        if pending.attempts >= self.config.command_attempts and not self._patient(now_s, pending):
             return self._give_up(pending)
         return [self._send(now_s, pending)], None
 
+    def _patient(self, now_s: float, pending: _Pending) -> bool:
+        """A patient command refused within ``prearm_give_up_s``: keep trying, say so once."""
+        first = pending.first_sent_s
+        if not pending.spec.patient or first is None:
+            return False
+        if now_s - first >= self.config.prearm_give_up_s:
+            return False
+        if not pending.told_waiting:
+            pending.told_waiting = True
+            self._event(
+                "waiting_prearm",
+                "refused: waiting for the autopilot's pre-arm checks (its STATUSTEXT says "
+                f"why); retrying until {self.config.prearm_give_up_s:g} s after the first try",
+                pending,
+            )
+        return True
+
     def _send(self, now_s: float, pending: _Pending) -> m.CommandLong:
+        if pending.first_sent_s is None:
+            pending.first_sent_s = now_s
         pending.attempts += 1
         pending.awaiting_ack = True
         pending.deadline_s = now_s + self.config.command_timeout_s
@@ -320,8 +349,11 @@ class CommandQueue:
 
     def _give_up(self, pending: _Pending) -> tuple[list[m.CommandLong], Trigger | None]:
         kind = "required" if pending.spec.required else "optional, skipped"
+        waited = ""
+        if pending.spec.patient and pending.first_sent_s is not None:
+            waited = f" over {self.config.prearm_give_up_s:g} s (companion.prearm_give_up_s)"
         self._event(
-            "command_failed", f"gave up after {pending.attempts} attempts ({kind})", pending
+            "command_failed", f"gave up after {pending.attempts} attempts{waited} ({kind})", pending
         )
         self._pending = None
         if pending.spec.required:

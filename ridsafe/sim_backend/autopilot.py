@@ -15,9 +15,12 @@ Frames: the vehicle's local NED frame is the tangent frame at its home (where it
 start); the sim's truth is the scenario ENU frame. ``HomeFrame`` maps between them exactly
 (both are rigid transforms of ECEF).
 
-Behaviour that ArduCopter has and this does not: no RC input (STABILIZE and ALT_HOLD hold
-position in the air, like LOITER), no parameters, no missions except the scripted one a
-``Mission`` provides in AUTO (the spoofer's straight line).
+Parameters are ArduCopter's names (:mod:`.param_table`, read at each use, so PARAM_SET acts
+at once); uploaded missions fly in AUTO (:mod:`.auto_mission`), the spoofer's scripted
+``Mission`` overrides them. Companion loss: a SET_POSITION_TARGET stream that stops for
+``SIM_OFB_LOSS_T`` in GUIDED, in the air, makes the vehicle LAND (or RTL / hold), logged
+as an event. Behaviour that ArduCopter has and this does not: no RC input (STABILIZE and
+ALT_HOLD hold position in the air, like LOITER), no geofence, no terrain.
 """
 
 from __future__ import annotations
@@ -26,7 +29,6 @@ import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from enum import Enum
 from typing import Protocol
 
 import numpy as np
@@ -34,18 +36,44 @@ from numpy.typing import ArrayLike, NDArray
 
 from ridsafe.common import frames
 from ridsafe.common import messages as m
-from ridsafe.common.frozen import quick_init
-from ridsafe.common.messages import CopterMode, MavCmd, MavResult
+from ridsafe.common import protocol_messages as pm
+from ridsafe.common.messages import CopterMode, MavResult
 from ridsafe.common.messages import PositionTargetMask as Mask
+from ridsafe.sim_backend.auto_mission import AutoMission
+from ridsafe.sim_backend.commands import (
+    ACCEPTED,
+    COMMAND_HANDLERS,
+    FORCE_DISARM_MAGIC,
+    RELATIVE_ALT_FRAMES,
+    Command,
+    CommandContext,
+    Outcome,
+    TelemetryControl,
+    VehicleSample,
+)
+from ridsafe.sim_backend.home_frame import HomeFrame
+from ridsafe.sim_backend.mission_protocol import MissionStore
+from ridsafe.sim_backend.mode_rules import (
+    ARM_CHECKS,
+    MODE_RULES,
+    TAKEOFF_CHECKS,
+    Behaviour,
+    ModeRule,
+)
+from ridsafe.sim_backend.param_table import FailsafeAction, ParamStore
+from ridsafe.sim_backend.targets import (
+    BODY_FRAMES,
+    POSITION_BITS,
+    TARGET_FRAMES,
+    VELOCITY_BITS,
+    mask_rejection,
+    yaw_rotate,
+)
 
 logger = logging.getLogger(__name__)
+PREARM_REPORT_PERIOD_S = 30.0
 
 FloatArray = NDArray[np.float64]
-
-FORCE_DISARM_MAGIC = 21196.0
-_POSITION_BITS = Mask.X_IGNORE | Mask.Y_IGNORE | Mask.Z_IGNORE
-_VELOCITY_BITS = Mask.VX_IGNORE | Mask.VY_IGNORE | Mask.VZ_IGNORE
-_ACCEL_BITS = Mask.AX_IGNORE | Mask.AY_IGNORE | Mask.AZ_IGNORE
 
 
 @dataclass(frozen=True)
@@ -63,39 +91,13 @@ class AutopilotConfig:
     max_target_distance_m: float = 50_000.0  # farther targets are rejected as out of range
     max_target_speed_m_s: float = 100.0  # faster targets are rejected; <= this is clipped to 8
     require_remote_id_to_arm: bool = False  # ArduPilot's DID_OPTIONS enforcement
-
-
-class Behaviour(Enum):
-    """What a mode makes the vehicle do once it is in the air."""
-
-    GUIDED = "follow targets"
-    HOLD = "hold position"
-    LAND = "descend and disarm"
-    RTL = "return home and land"
-    MISSION = "fly the scripted mission"
-
-
-@dataclass(frozen=True)
-class ModeRule:
-    """``guided_flag``: HEARTBEAT.base_mode carries MAV_MODE_FLAG_GUIDED_ENABLED (as
-    ArduCopter sets it for its position-controlled modes)."""
-
-    armable: bool
-    accepts_targets: bool
-    behaviour: Behaviour
-    guided_flag: bool
-
-
-MODE_RULES: dict[CopterMode, ModeRule] = {
-    CopterMode.STABILIZE: ModeRule(True, False, Behaviour.HOLD, guided_flag=False),
-    CopterMode.ALT_HOLD: ModeRule(True, False, Behaviour.HOLD, guided_flag=False),
-    CopterMode.GUIDED: ModeRule(True, True, Behaviour.GUIDED, guided_flag=True),
-    CopterMode.LOITER: ModeRule(True, False, Behaviour.HOLD, guided_flag=True),
-    CopterMode.AUTO: ModeRule(True, False, Behaviour.MISSION, guided_flag=True),
-    CopterMode.RTL: ModeRule(False, False, Behaviour.RTL, guided_flag=True),
-    CopterMode.LAND: ModeRule(False, False, Behaviour.LAND, guided_flag=False),
-    CopterMode.BRAKE: ModeRule(False, False, Behaviour.HOLD, guided_flag=True),
-}
+    # Companion loss: a setpoint stream (two or more SET_POSITION_TARGET_*) that stops for
+    # this long in GUIDED, in the air, triggers ``companion_loss_action`` (0 disables).
+    companion_loss_timeout_s: float = 10.0  # SIM_OFB_LOSS_T
+    companion_loss_action: FailsafeAction = FailsafeAction.LAND  # SIM_OFB_LOSS_ACT
+    # No position estimate for this long after start (SIM_PREARM_T): arming refused with
+    # "Arm: Need Position Estimate", "PreArm: ..." every 30 s, as a real ArduCopter's ~40 s.
+    prearm_delay_s: float = 0.0
 
 
 class Actuators(Protocol):
@@ -121,83 +123,6 @@ class Mission(Protocol):
         ...
 
 
-@quick_init
-@dataclass(frozen=True)
-class VehicleSample:
-    """One vehicle's truth at a tick, in the scenario ENU frame."""
-
-    p_enu_m: FloatArray
-    v_enu_m_s: FloatArray
-    psi_rad: float
-    on_ground: bool
-
-
-class HomeFrame:
-    """Exact map between the scenario ENU frame and a vehicle's local NED frame at its home.
-
-    Both are rigid transforms of ECEF, so ``p_ned = R p_enu + t`` exactly; R and t are read
-    off the frames module by mapping the origin and three 1 km axis points.
-    """
-
-    def __init__(self, scenario_origin: frames.GeodeticOrigin, home_enu_m: ArrayLike) -> None:
-        home = np.asarray(home_enu_m, dtype=np.float64)
-        lat, lon, alt = frames.enu_to_geodetic(scenario_origin, home)
-        self.home_geodetic = frames.GeodeticOrigin(float(lat), float(lon), float(alt))
-        self.home_enu_m = home
-        probe = np.vstack([np.zeros(3), 1000.0 * np.eye(3)])
-        plat, plon, palt = frames.enu_to_geodetic(scenario_origin, probe)
-        ned = frames.geodetic_to_ned(self.home_geodetic, plat, plon, palt)
-        self._t = ned[0]
-        self._r = (ned[1:] - ned[0]).T / 1000.0  # columns: images of the ENU unit axes
-
-    def enu_to_local_ned(self, p_enu_m: ArrayLike) -> FloatArray:
-        """Scenario ENU position(s) (..., 3) -> local NED (..., 3)."""
-        out: FloatArray = np.asarray(p_enu_m, dtype=np.float64) @ self._r.T + self._t
-        return out
-
-    def local_ned_to_enu(self, p_ned_m: ArrayLike) -> FloatArray:
-        out: FloatArray = (np.asarray(p_ned_m, dtype=np.float64) - self._t) @ self._r
-        return out
-
-    def vel_enu_to_ned(self, v_enu_m_s: ArrayLike) -> FloatArray:
-        out: FloatArray = np.asarray(v_enu_m_s, dtype=np.float64) @ self._r.T
-        return out
-
-    def vel_ned_to_enu(self, v_ned_m_s: ArrayLike) -> FloatArray:
-        out: FloatArray = np.asarray(v_ned_m_s, dtype=np.float64) @ self._r
-        return out
-
-
-@dataclass(frozen=True)
-class Outcome:
-    """A command's result and, for rejections, the reason ArduPilot would print."""
-
-    result: MavResult
-    reason: str = ""
-
-
-ACCEPTED = Outcome(MavResult.ACCEPTED)
-
-
-class TelemetryControl(Protocol):
-    """The requesting link's telemetry schedule (MAV_CMD_SET_MESSAGE_INTERVAL and friends)."""
-
-    def set_interval(self, msg_id: int, interval_us: float) -> bool: ...
-    def request_once(self, msg_id: int) -> bool: ...
-
-
-@quick_init
-@dataclass(frozen=True)
-class CommandContext:
-    now_s: float
-    sample: VehicleSample
-    telemetry: TelemetryControl
-
-
-Handler = Callable[["Autopilot", m.CommandLong, CommandContext], Outcome]
-Check = tuple[Callable[["Autopilot", CommandContext], bool], MavResult, str]
-
-
 class Autopilot:
     """Modes, arming, commands, GUIDED targets and failsafes of one vehicle (index ``vehicle``)."""
 
@@ -214,12 +139,12 @@ class Autopilot:
         self.sysid = sysid
         self.vehicle = vehicle
         self.home = home
-        self.config = config if config is not None else AutopilotConfig()
+        self.config: AutopilotConfig = config if config is not None else AutopilotConfig()
         self.mission = mission
-        self._actuators = actuators
-        self._remote_id_error = remote_id_error
-        self.mode = CopterMode.STABILIZE
-        self.armed = False
+        self.actuators = actuators
+        self._remote_id_error: Callable[[float], str | None] | None = remote_id_error
+        self.mode: CopterMode = CopterMode.STABILIZE
+        self.armed: bool = False
         self.takeoff_alt_enu_m: float | None = None
         self.last_target_s = -math.inf
         self.target_has_velocity = False
@@ -227,6 +152,13 @@ class Autopilot:
         self.landed_since_s: float | None = None
         self.failsafe_active = False
         self.rejected_targets = 0
+        self.params: ParamStore = ParamStore(self.config, sysid)
+        self.missions = MissionStore()
+        self.auto: AutoMission | None = None
+        self.setpoints_in_stream = 0
+        self.failsafes = 0
+        self._next_prearm_text_s = 0.0
+        self._events: list[dict[str, object]] = []
         self._hold_enu_m: FloatArray | None = None
         self._status: list[m.StatusText] = []
 
@@ -247,6 +179,20 @@ class Autopilot:
             m.MavType.OCTOROTOR, m.MavAutopilot.ARDUPILOTMEGA, int(base), int(self.mode), state
         )
 
+    def take_events(self) -> list[dict[str, object]]:
+        """Failsafe events since the last call (``{sysid, event, action, mode}``)."""
+        out, self._events = self._events, []
+        return out
+
+    def prearm_ok(self, now_s: float) -> bool:
+        """The pre-arm checks that do not depend on mode or flight state pass."""
+        if self.params.get("ARMING_CHECK") == 0:
+            return True
+        if now_s < self.params.get("SIM_PREARM_T"):
+            return False
+        rid = self._remote_id_error
+        return rid is None or not self.config.require_remote_id_to_arm or rid(now_s) is None
+
     def take_status(self) -> list[m.StatusText]:
         """STATUSTEXT messages produced since the last call."""
         out, self._status = self._status, []
@@ -259,7 +205,10 @@ class Autopilot:
 
     # -- commands --------------------------------------------------------------------------
 
-    def handle_command(self, cmd: m.CommandLong, ctx: CommandContext) -> m.CommandAck:
+    def handle_command(
+        self, msg: m.CommandLong | pm.CommandInt, ctx: CommandContext
+    ) -> m.CommandAck:
+        cmd = Command.of(msg)
         handler = COMMAND_HANDLERS.get(cmd.command)
         if handler is None:
             outcome = Outcome(MavResult.UNSUPPORTED, f"Unsupported command {cmd.command}")
@@ -285,11 +234,16 @@ class Autopilot:
             return Outcome(MavResult.FAILED, f"Mode change to {int(custom_mode)} failed")
         if mode not in MODE_RULES:
             return Outcome(MavResult.FAILED, f"Mode change to {mode.name} failed")
-        if MODE_RULES[mode].behaviour is Behaviour.MISSION and self.mission is None:
-            return Outcome(MavResult.FAILED, "Mode change to AUTO failed: no mission")
+        auto = MODE_RULES[mode].behaviour is Behaviour.MISSION and self.mission is None
+        if auto and mode is not self.mode:
+            items = self.missions.nav_items()
+            if not items:
+                return Outcome(MavResult.FAILED, "Mode change to AUTO failed: no mission")
+            self.auto = AutoMission(items, max(self.missions.current_seq, 1))
         if mode is not self.mode:
             self.mode = mode
             self.failsafe_active = False
+            self.setpoints_in_stream = 0
             self._hold_enu_m = ctx.sample.p_enu_m.copy()
             self._say(m.MavSeverity.INFO, f"Mode {mode.name}")
         return ACCEPTED
@@ -304,10 +258,10 @@ class Autopilot:
         self.armed_at_s = ctx.now_s
         self.takeoff_alt_enu_m = None
         self._hold_enu_m = ctx.sample.p_enu_m.copy()
-        self._actuators.set_target(
+        self.actuators.set_target(
             self.vehicle, position_enu_m=ctx.sample.p_enu_m, yaw_rad=ctx.sample.psi_rad
         )
-        self._actuators.arm(self.vehicle)
+        self.actuators.arm(self.vehicle)
         self._say(m.MavSeverity.INFO, "Arming motors")
         return ACCEPTED
 
@@ -322,7 +276,7 @@ class Autopilot:
     def _disarm(self, now_s: float) -> None:
         self.armed = False
         self.takeoff_alt_enu_m = None
-        self._actuators.disarm(self.vehicle)
+        self.actuators.disarm(self.vehicle)
         self._say(m.MavSeverity.INFO, f"Disarming motors at {now_s:.1f} s")
 
     def takeoff(self, alt_rel_m: float, ctx: CommandContext) -> Outcome:
@@ -334,7 +288,7 @@ class Autopilot:
         self.takeoff_alt_enu_m = float(self.home.home_enu_m[2] + alt_rel_m)
         target = ctx.sample.p_enu_m.copy()
         target[2] = self.takeoff_alt_enu_m
-        self._actuators.set_target(self.vehicle, position_enu_m=target, yaw_rad=ctx.sample.psi_rad)
+        self.actuators.set_target(self.vehicle, position_enu_m=target, yaw_rad=ctx.sample.psi_rad)
         self.last_target_s = ctx.now_s
         self.target_has_velocity = False
         self._say(m.MavSeverity.INFO, f"Takeoff to {alt_rel_m:.1f} m")
@@ -354,24 +308,61 @@ class Autopilot:
             return False
         mask = Mask(msg.type_mask)
         position = velocity = None
-        if not mask & _POSITION_BITS:
+        heading_rad = frames.wrap_pi(math.pi / 2 - ctx.sample.psi_rad)
+        body = msg.coordinate_frame in BODY_FRAMES
+        if not mask & POSITION_BITS:
             p_ned = np.asarray(msg.p_ned_m, dtype=np.float64)
-            if msg.coordinate_frame == m.MavFrame.LOCAL_OFFSET_NED:
+            if body:
+                p_ned = yaw_rotate(p_ned, heading_rad)
+            if msg.coordinate_frame != m.MavFrame.LOCAL_NED:
                 p_ned = p_ned + self.home.enu_to_local_ned(ctx.sample.p_enu_m)
             position = self.home.local_ned_to_enu(p_ned)
-        if not mask & _VELOCITY_BITS:
-            velocity = self.home.vel_ned_to_enu(msg.v_ned_m_s)
+        if not mask & VELOCITY_BITS:
+            v_ned = np.asarray(msg.v_ned_m_s, dtype=np.float64)
+            velocity = self.home.vel_ned_to_enu(yaw_rotate(v_ned, heading_rad) if body else v_ned)
         yaw = None if mask & Mask.YAW_IGNORE else frames.wrap_pi(math.pi / 2 - msg.yaw_rad)
         if yaw is None:
             yaw = ctx.sample.psi_rad
-        self._actuators.set_target(
+        self.actuators.set_target(
             self.vehicle, position_enu_m=position, velocity_enu_m_s=velocity, yaw_rad=yaw
         )
         self.takeoff_alt_enu_m = None
         self.last_target_s = ctx.now_s
         self.target_has_velocity = velocity is not None
         self.failsafe_active = False
+        self.setpoints_in_stream += 1
         return True
+
+    def go_to_global(
+        self, lat_deg: float, lon_deg: float, alt_m: float, frame: int, ctx: CommandContext
+    ) -> Outcome:
+        """Fly to a WGS-84 point and hold there (DO_REPOSITION, guided MISSION_ITEM);
+        ``alt_m`` above home for the relative-altitude frames, else above the ellipsoid."""
+        if not all(math.isfinite(v) for v in (lat_deg, lon_deg, alt_m)):
+            return Outcome(MavResult.DENIED, "Guided: non-finite target")
+        if not (abs(lat_deg) <= 90.0 and abs(lon_deg) <= 180.0):
+            return Outcome(MavResult.DENIED, "Guided: latitude/longitude out of range")
+        if MODE_RULES[self.mode].behaviour is not Behaviour.GUIDED:
+            return Outcome(MavResult.DENIED, f"Guided: mode {self.mode.name} is not GUIDED")
+        if not self.armed or (ctx.sample.on_ground and self.takeoff_alt_enu_m is None):
+            return Outcome(MavResult.FAILED, "Guided: not flying (arm and take off first)")
+        home = self.home.home_geodetic
+        alt_msl = home.alt_m + alt_m if frame in RELATIVE_ALT_FRAMES else alt_m
+        p_ned = frames.geodetic_to_ned(home, lat_deg, lon_deg, alt_msl)
+        distance = float(np.max(np.abs(p_ned)))
+        if distance > self.config.max_target_distance_m:
+            return Outcome(MavResult.DENIED, f"Guided: {distance:.3g} m out of range")
+        self.actuators.set_target(
+            self.vehicle,
+            position_enu_m=self.home.local_ned_to_enu(p_ned),
+            yaw_rad=ctx.sample.psi_rad,
+        )
+        self.takeoff_alt_enu_m = None
+        self.last_target_s = ctx.now_s
+        self.target_has_velocity = False
+        self.failsafe_active = False
+        self.setpoints_in_stream = 0  # a one-shot target, not an offboard stream
+        return ACCEPTED
 
     def _target_rejection(
         self, msg: m.SetPositionTargetLocalNed, ctx: CommandContext
@@ -380,15 +371,18 @@ class Autopilot:
             return f"Target: mode {self.mode.name} is not GUIDED"
         if not self.armed or (ctx.sample.on_ground and self.takeoff_alt_enu_m is None):
             return "Target: not flying (arm and take off first)"
-        if msg.coordinate_frame not in (m.MavFrame.LOCAL_NED, m.MavFrame.LOCAL_OFFSET_NED):
+        if msg.coordinate_frame not in TARGET_FRAMES:
             return f"Target: frame {msg.coordinate_frame} unsupported"
-        return _mask_rejection(msg, self.config)
+        return mask_rejection(
+            msg, self.config.max_target_distance_m, self.config.max_target_speed_m_s
+        )
 
     # -- every tick ------------------------------------------------------------------------
 
     def update(self, now_s: float, sample: VehicleSample) -> None:
         """Mode behaviour, failsafe, land detection and auto-disarm."""
         if not self.armed:
+            self._prearm_report(now_s)
             return
         if sample.on_ground:
             self._on_ground(now_s)
@@ -403,44 +397,94 @@ class Autopilot:
             self._rtl(sample)
         elif behaviour is Behaviour.MISSION and self.mission is not None:
             position, velocity = self.mission.target(now_s)
-            self._actuators.set_target(
+            self.actuators.set_target(
                 self.vehicle, position_enu_m=position, velocity_enu_m_s=velocity
             )
+        elif behaviour is Behaviour.MISSION and self.auto is not None:
+            self.auto.update(sample, self)
+
+    def _prearm_report(self, now_s: float) -> None:
+        """Disarmed without a position estimate: say so every 30 s, as ArduCopter does."""
+        if now_s < self.params.get("SIM_PREARM_T") and now_s >= self._next_prearm_text_s:
+            self._next_prearm_text_s = now_s + PREARM_REPORT_PERIOD_S
+            self._say(m.MavSeverity.CRITICAL, "PreArm: Need Position Estimate")
 
     def _on_ground(self, now_s: float) -> None:
         if self.landed_since_s is None:
             self.landed_since_s = now_s
         landed_for = now_s - self.landed_since_s
-        landing = MODE_RULES[self.mode].behaviour in (Behaviour.LAND, Behaviour.RTL)
-        idle = (
-            self.takeoff_alt_enu_m is None
-            and min(landed_for, now_s - self.armed_at_s) >= self.config.disarm_delay_s
+        behaviour = MODE_RULES[self.mode].behaviour
+        landing = behaviour in (Behaviour.LAND, Behaviour.RTL) or (
+            behaviour is Behaviour.MISSION and self.auto is not None and self.auto.landing
         )
+        idle = self.takeoff_alt_enu_m is None and min(
+            landed_for, now_s - self.armed_at_s
+        ) >= self.params.get("DISARM_DELAY")
         if (landing and landed_for >= 1.0) or idle:
             self._disarm(now_s)
 
     def _guided_failsafe(self, now_s: float, sample: VehicleSample) -> None:
-        lapsed = now_s - self.last_target_s > self.config.failsafe_timeout_s
+        self._companion_loss(now_s, sample)
+        lapsed = now_s - self.last_target_s > self.params.get("GUID_TIMEOUT")
         if self.target_has_velocity and lapsed and not self.failsafe_active:
             self.failsafe_active = True
             self.target_has_velocity = False
-            self._actuators.set_target(
+            self.actuators.set_target(
                 self.vehicle, position_enu_m=sample.p_enu_m, yaw_rad=sample.psi_rad
             )
             self._say(
                 m.MavSeverity.WARNING,
-                f"No target for {self.config.failsafe_timeout_s:g} s: holding position",
+                f"No target for {self.params.get('GUID_TIMEOUT'):g} s: holding position",
             )
+
+    def _companion_loss(self, now_s: float, sample: VehicleSample) -> None:
+        """The setpoint stream stopped for SIM_OFB_LOSS_T in the air: hold, land or RTL."""
+        timeout_s = self.params.get("SIM_OFB_LOSS_T")
+        if timeout_s <= 0 or self.setpoints_in_stream < 2 or sample.on_ground:
+            return
+        silent_s = now_s - self.last_target_s
+        if silent_s <= timeout_s:
+            return
+        action = FailsafeAction(int(self.params.get("SIM_OFB_LOSS_ACT")))
+        self.setpoints_in_stream = 0
+        self.failsafes += 1
+        self._say(
+            m.MavSeverity.CRITICAL, f"Failsafe: companion lost {silent_s:.1f} s, {action.name}"
+        )
+        self._events.append(
+            {"sysid": self.sysid, "event": "companion_loss", "action": action.name.lower(),
+             "silent_s": silent_s}
+        )  # fmt: skip
+        if action is FailsafeAction.HOLD:
+            self.actuators.set_target(
+                self.vehicle, position_enu_m=sample.p_enu_m, yaw_rad=sample.psi_rad
+            )
+            self.target_has_velocity = False
+            self.failsafe_active = True
+            return
+        mode = CopterMode.LAND if action is FailsafeAction.LAND else CopterMode.RTL
+        self.mode = mode
+        self._hold_enu_m = sample.p_enu_m.copy()
+
+    def land_here(self, sample: VehicleSample, hold_enu_m: FloatArray | None = None) -> None:
+        """One tick of LAND's descent (also AUTO's NAV_LAND), over ``hold_enu_m`` if given."""
+        if hold_enu_m is not None:
+            self._hold_enu_m = hold_enu_m
+        self._land(sample)
+
+    def return_home(self, sample: VehicleSample) -> None:
+        """One tick of RTL (also AUTO's NAV_RETURN_TO_LAUNCH)."""
+        self._rtl(sample)
 
     def _land(self, sample: VehicleSample) -> None:
         height = sample.p_enu_m[2] - self.home.home_enu_m[2]
         speed = (
-            self.config.land_speed_high_m_s
-            if height > self.config.land_final_alt_m
-            else self.config.land_speed_m_s
+            self.params.get("LAND_SPEED_HIGH") / 100.0
+            if height > self.params.get("LAND_ALT_LOW") / 100.0
+            else self.params.get("LAND_SPEED") / 100.0
         )
         hold = self._hold_enu_m if self._hold_enu_m is not None else sample.p_enu_m
-        self._actuators.set_target(
+        self.actuators.set_target(
             self.vehicle,
             position_enu_m=np.array([hold[0], hold[1], sample.p_enu_m[2]]),
             velocity_enu_m_s=np.array([0.0, 0.0, -speed]),
@@ -449,7 +493,7 @@ class Autopilot:
 
     def _rtl(self, sample: VehicleSample) -> None:
         home = self.home.home_enu_m
-        rtl_z = max(home[2] + self.config.rtl_alt_m, float(sample.p_enu_m[2]))
+        rtl_z = max(home[2] + self.params.get("RTL_ALT") / 100.0, float(sample.p_enu_m[2]))
         offset = home[:2] - sample.p_enu_m[:2]
         distance = float(np.hypot(*offset))
         if distance < 2.0:
@@ -462,133 +506,30 @@ class Autopilot:
         target[2] = rtl_z
         velocity = np.zeros(3)
         if not climbing:
-            velocity[:2] = offset / distance * min(self.config.rtl_speed_m_s, distance / 2.0)
-        self._actuators.set_target(self.vehicle, position_enu_m=target, velocity_enu_m_s=velocity)
-
-
-def _used(mask: Mask, bits: Mask) -> bool | None:
-    """True if all three axes are used, False if all ignored, None if mixed."""
-    ignored = mask & bits
-    if ignored == bits:
-        return False
-    return True if not ignored else None
-
-
-def _mask_rejection(msg: m.SetPositionTargetLocalNed, config: AutopilotConfig) -> str | None:
-    mask = Mask(msg.type_mask)
-    used_pos, used_vel = _used(mask, _POSITION_BITS), _used(mask, _VELOCITY_BITS)
-    if used_pos is None or used_vel is None:
-        return f"Target: mask {msg.type_mask} mixes used and ignored axes"
-    if (mask & _ACCEL_BITS) != _ACCEL_BITS:
-        return f"Target: mask {msg.type_mask} asks for acceleration"
-    if not (used_pos or used_vel):
-        return f"Target: mask {msg.type_mask} uses neither pos nor velocity"
-    return _value_rejection(msg, used_pos, used_vel, config)
-
-
-def _value_rejection(
-    msg: m.SetPositionTargetLocalNed, used_pos: bool, used_vel: bool, config: AutopilotConfig
-) -> str | None:
-    values: list[float] = []
-    if used_pos:
-        values.extend(msg.p_ned_m)
-    if used_vel:
-        values.extend(msg.v_ned_m_s)
-    if not (Mask(msg.type_mask) & Mask.YAW_IGNORE):
-        values.append(msg.yaw_rad)
-    if not all(math.isfinite(v) for v in values):
-        return "Target: NaN or infinite value in a used field"
-    if used_pos and max(abs(v) for v in msg.p_ned_m) > config.max_target_distance_m:
-        return f"Target: {max(abs(v) for v in msg.p_ned_m):.3g} m out of range"
-    if used_vel and math.hypot(*msg.v_ned_m_s) > config.max_target_speed_m_s:
-        return f"Target: {math.hypot(*msg.v_ned_m_s):.3g} m/s out of range"
-    return None
+            speed_m_s = self.params.get("RTL_SPEED") / 100.0
+            velocity[:2] = offset / distance * min(speed_m_s, distance / 2.0)
+        self.actuators.set_target(self.vehicle, position_enu_m=target, velocity_enu_m_s=velocity)
 
 
 # --- the tables -------------------------------------------------------------------------------
 
-ARM_CHECKS: tuple[Check, ...] = (
-    (
-        lambda ap, ctx: MODE_RULES[ap.mode].armable,
-        MavResult.FAILED,
-        "Arm: Mode not armable",
-    ),
-    (
-        lambda ap, ctx: ctx.sample.on_ground,
-        MavResult.FAILED,
-        "Arm: vehicle is not on the ground",
-    ),
-    (
-        lambda ap, ctx: (
-            ap._remote_id_error is None
-            or not ap.config.require_remote_id_to_arm
-            or ap._remote_id_error(ctx.now_s) is None
-        ),
-        MavResult.FAILED,
-        "PreArm: Remote ID not ready",
-    ),
-)
-
-TAKEOFF_CHECKS: tuple[Check, ...] = (
-    (lambda ap, ctx: ap.armed, MavResult.FAILED, "Takeoff: vehicle is disarmed"),
-    (
-        lambda ap, ctx: MODE_RULES[ap.mode].accepts_targets,
-        MavResult.FAILED,
-        "Takeoff: mode is not GUIDED",
-    ),
-    (lambda ap, ctx: ctx.sample.on_ground, MavResult.FAILED, "Takeoff: already flying"),
-)
-
-
-def _cmd_arm_disarm(ap: Autopilot, cmd: m.CommandLong, ctx: CommandContext) -> Outcome:
-    arm, force = cmd.params[0], cmd.params[1]
-    if arm == 1.0:
-        return ap.arm(ctx)
-    if arm == 0.0:
-        return ap.disarm(force == FORCE_DISARM_MAGIC, ctx)
-    return Outcome(MavResult.DENIED, f"Arm/disarm: param1 {arm} is neither 0 nor 1")
-
-
-def _cmd_takeoff(ap: Autopilot, cmd: m.CommandLong, ctx: CommandContext) -> Outcome:
-    return ap.takeoff(cmd.params[6], ctx)
-
-
-def _cmd_set_mode(ap: Autopilot, cmd: m.CommandLong, ctx: CommandContext) -> Outcome:
-    if not int(cmd.params[0]) & m.MavModeFlag.CUSTOM_MODE_ENABLED:
-        return Outcome(MavResult.DENIED, "Set mode: only custom modes are supported")
-    return ap.set_mode(cmd.params[1], ctx)
-
-
-def _cmd_land(ap: Autopilot, cmd: m.CommandLong, ctx: CommandContext) -> Outcome:
-    return ap.set_mode(CopterMode.LAND, ctx)
-
-
-def _cmd_rtl(ap: Autopilot, cmd: m.CommandLong, ctx: CommandContext) -> Outcome:
-    return ap.set_mode(CopterMode.RTL, ctx)
-
-
-def _cmd_message_interval(ap: Autopilot, cmd: m.CommandLong, ctx: CommandContext) -> Outcome:
-    msg_id, interval_us = cmd.params[0], cmd.params[1]
-    if not (math.isfinite(msg_id) and math.isfinite(interval_us)):
-        return Outcome(MavResult.DENIED, "Message interval: non-finite parameter")
-    if ctx.telemetry.set_interval(int(msg_id), interval_us):
-        return ACCEPTED
-    return Outcome(MavResult.FAILED, f"Message interval: message {int(msg_id)} not streamed")
-
-
-def _cmd_request_message(ap: Autopilot, cmd: m.CommandLong, ctx: CommandContext) -> Outcome:
-    msg_id = cmd.params[0]
-    if math.isfinite(msg_id) and ctx.telemetry.request_once(int(msg_id)):
-        return ACCEPTED
-    return Outcome(MavResult.FAILED, f"Request message: {msg_id} not available")
-
-
-COMMAND_HANDLERS: dict[int, Handler] = {
-    MavCmd.COMPONENT_ARM_DISARM: _cmd_arm_disarm,
-    MavCmd.NAV_TAKEOFF: _cmd_takeoff,
-    MavCmd.DO_SET_MODE: _cmd_set_mode,
-    MavCmd.NAV_LAND: _cmd_land,
-    MavCmd.NAV_RETURN_TO_LAUNCH: _cmd_rtl,
-    MavCmd.SET_MESSAGE_INTERVAL: _cmd_message_interval,
-    MavCmd.REQUEST_MESSAGE: _cmd_request_message,
-}
+__all__ = [
+    "ACCEPTED",
+    "ARM_CHECKS",
+    "COMMAND_HANDLERS",
+    "FORCE_DISARM_MAGIC",
+    "MODE_RULES",
+    "TAKEOFF_CHECKS",
+    "Actuators",
+    "Autopilot",
+    "AutopilotConfig",
+    "Behaviour",
+    "CommandContext",
+    "FailsafeAction",
+    "HomeFrame",
+    "Mission",
+    "ModeRule",
+    "Outcome",
+    "TelemetryControl",
+    "VehicleSample",
+]

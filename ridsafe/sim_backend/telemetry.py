@@ -11,7 +11,7 @@ Altitudes: the sim has no geoid, so "MSL" altitudes are WGS-84 ellipsoid heights
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -19,8 +19,10 @@ from numpy.typing import NDArray
 
 from ridsafe.common import frames
 from ridsafe.common import messages as m
+from ridsafe.common import protocol_messages as pm
 from ridsafe.common.dialect import ridsafe_v20 as ids
-from ridsafe.sim_backend.autopilot import HomeFrame
+from ridsafe.common.protocol_messages import LandedState
+from ridsafe.sim_backend.autopilot import MODE_RULES, Autopilot, Behaviour, HomeFrame
 from ridsafe.sim_backend.dynamics import BODY_RATES, EULER, POS_ENU, VEL_ENU
 
 FloatArray = NDArray[np.float64]
@@ -32,9 +34,18 @@ ATTITUDE = ids.MAVLINK_MSG_ID_ATTITUDE
 LOCAL_POSITION_NED = ids.MAVLINK_MSG_ID_LOCAL_POSITION_NED
 GLOBAL_POSITION_INT = ids.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
 HOME_POSITION = ids.MAVLINK_MSG_ID_HOME_POSITION
+EXTENDED_SYS_STATE = ids.MAVLINK_MSG_ID_EXTENDED_SYS_STATE
+GPS_RAW_INT = ids.MAVLINK_MSG_ID_GPS_RAW_INT
+VFR_HUD = ids.MAVLINK_MSG_ID_VFR_HUD
+BATTERY_STATUS = ids.MAVLINK_MSG_ID_BATTERY_STATUS
+RC_CHANNELS = ids.MAVLINK_MSG_ID_RC_CHANNELS
+MISSION_CURRENT = ids.MAVLINK_MSG_ID_MISSION_CURRENT
+AUTOPILOT_VERSION = ids.MAVLINK_MSG_ID_AUTOPILOT_VERSION
 
 # Gyro, accel, mag, baro, GPS, motor outputs, AHRS: present, enabled, healthy.
 _SENSORS = 0x1 | 0x2 | 0x4 | 0x8 | 0x20 | 0x8000 | 0x200000
+_PREARM = 0x10000000  # MAV_SYS_STATUS_PREARM_CHECK: healthy once arming checks pass
+_GEOFENCE = 0x100000  # not present (FENCE_ENABLE 0) but healthy: no "fence breach"
 _BATTERY_V = 25.2  # 6S full; the sim has no battery model
 
 
@@ -49,6 +60,18 @@ class TelemetryRatesHz:
     sys_status: float = 1.0
     system_time: float = 1.0
     home_position: float = 0.5
+    # Off unless a client asks (SET_MESSAGE_INTERVAL, REQUEST_DATA_STREAM, SRx_*); "0 = the
+    # default rate" in SET_MESSAGE_INTERVAL then means ``ON_REQUEST_HZ``.
+    extended_sys_state: float = 0.0
+    gps_raw_int: float = 0.0
+    vfr_hud: float = 0.0
+    battery_status: float = 0.0
+    rc_channels: float = 0.0
+    mission_current: float = 0.0
+    autopilot_version: float = 0.0  # answered to requests only
+    # False: like ArduCopter, stream nothing but HEARTBEAT until a client asks; our own apps
+    # then ask for what they need. True keeps the sim's convenience: the rates above.
+    stream_unasked: bool = True
 
     def __post_init__(self) -> None:
         for name, value in self.by_id_name():
@@ -61,6 +84,12 @@ class TelemetryRatesHz:
     def by_id(self) -> dict[int, float]:
         return {_STREAM_IDS[name]: rate for name, rate in self.by_id_name()}
 
+    def initial_by_id(self) -> dict[int, float]:
+        """What a link streams before anyone asks."""
+        if self.stream_unasked:
+            return self.by_id()
+        return {k: (v if k == HEARTBEAT else 0.0) for k, v in self.by_id().items()}
+
 
 _STREAM_IDS: dict[str, int] = {
     "heartbeat": HEARTBEAT,
@@ -70,7 +99,15 @@ _STREAM_IDS: dict[str, int] = {
     "sys_status": SYS_STATUS,
     "system_time": SYSTEM_TIME,
     "home_position": HOME_POSITION,
+    "extended_sys_state": EXTENDED_SYS_STATE,
+    "gps_raw_int": GPS_RAW_INT,
+    "vfr_hud": VFR_HUD,
+    "battery_status": BATTERY_STATUS,
+    "rc_channels": RC_CHANNELS,
+    "mission_current": MISSION_CURRENT,
+    "autopilot_version": AUTOPILOT_VERSION,
 }
+ON_REQUEST_HZ = 4.0
 
 
 @dataclass
@@ -78,13 +115,15 @@ class TelemetrySchedule:
     """One link's streams: message id -> interval (s, inf = off) and next due time."""
 
     defaults_hz: dict[int, float]
+    initial_hz: dict[int, float] | None = None  # None: the defaults
     interval_s: dict[int, float] = field(init=False)
     next_due_s: dict[int, float] = field(init=False)
     requested: set[int] = field(default_factory=set)
     earliest_s: float = field(init=False, default=0.0)  # no stream is due before this
 
     def __post_init__(self) -> None:
-        self.interval_s = {k: _interval(hz) for k, hz in self.defaults_hz.items()}
+        initial = self.defaults_hz if self.initial_hz is None else self.initial_hz
+        self.interval_s = {k: _interval(initial[k]) for k in self.defaults_hz}
         self.next_due_s = dict.fromkeys(self.defaults_hz, 0.0)
 
     def _update_earliest(self) -> None:
@@ -98,7 +137,7 @@ class TelemetrySchedule:
         if interval_us < 0:
             self.interval_s[msg_id] = math.inf
         elif interval_us == 0:
-            self.interval_s[msg_id] = _interval(self.defaults_hz[msg_id])
+            self.interval_s[msg_id] = _interval(self.defaults_hz[msg_id] or ON_REQUEST_HZ)
         else:
             self.interval_s[msg_id] = max(interval_us * 1e-6, 0.0025)
             self.next_due_s[msg_id] = 0.0
@@ -146,8 +185,10 @@ class FleetSnapshot:
         state: FloatArray,
         homes: Sequence[HomeFrame],
         origin: frames.GeodeticOrigin,
+        on_ground: NDArray[np.bool_] | None = None,
     ) -> None:
         self.now_s = now_s
+        self.on_ground = on_ground
         self.unix_s = unix_s
         self.p_enu_m = state[:, POS_ENU]
         self.v_enu_m_s = state[:, VEL_ENU]
@@ -186,8 +227,9 @@ class FleetSnapshot:
         p, q, r = frames.body_rates_flu_to_frd(*(float(w) for w in self.rates_flu_rad_s[i]))
         return m.Attitude(self.now_s, roll, pitch, yaw, (p, q, r))
 
-    def sys_status(self, _i: int) -> m.SysStatus:
-        return m.SysStatus(_SENSORS, _SENSORS, _SENSORS, 15.0, _BATTERY_V, 100)
+    def sys_status(self, _i: int, prearm_ok: bool = True) -> m.SysStatus:
+        health = _SENSORS | _GEOFENCE | (_PREARM if prearm_ok else 0)
+        return m.SysStatus(_SENSORS | _PREARM, _SENSORS | _PREARM, health, 15.0, _BATTERY_V, 100)
 
     def system_time(self, _i: int) -> m.SystemTime:
         return m.SystemTime(self.unix_s, self.now_s)
@@ -195,3 +237,77 @@ class FleetSnapshot:
     def home_position(self, i: int) -> m.HomePosition:
         home = self.homes[i].home_geodetic
         return m.HomePosition(home.lat_deg, home.lon_deg, home.alt_m, (0.0, 0.0, 0.0))
+
+    # -- what ground stations expect besides (ArduCopter's values where the sim has none) --
+
+    def landed_state(self, i: int, autopilot: Autopilot) -> int:
+        on_ground = self.on_ground is not None and bool(self.on_ground[i])
+        if not autopilot.armed or (on_ground and autopilot.takeoff_alt_enu_m is None):
+            return LandedState.ON_GROUND
+        if autopilot.takeoff_alt_enu_m is not None:
+            return LandedState.TAKEOFF
+        if MODE_RULES[autopilot.mode].behaviour is Behaviour.LAND:
+            return LandedState.LANDING
+        return LandedState.IN_AIR
+
+    def extended_sys_state(self, i: int, autopilot: Autopilot) -> pm.ExtendedSysState:
+        return pm.ExtendedSysState(0, int(self.landed_state(i, autopilot)))
+
+    def gps_raw_int(self, i: int, autopilot: Autopilot) -> pm.GpsRawInt:
+        """A 3D fix with 10 satellites once the pre-arm period is over, none before."""
+        fix = autopilot.prearm_ok(self.now_s) or autopilot.params.get("ARMING_CHECK") == 0
+        v = self.v_enu_m_s[i]
+        course_deg = math.degrees(math.atan2(float(v[0]), float(v[1]))) % 360.0
+        return pm.GpsRawInt(
+            self.now_s, 3 if fix else 1, float(self.lat_deg[i]), float(self.lon_deg[i]),
+            float(self.alt_m[i]), 0.8, 1.2, float(math.hypot(v[0], v[1])), course_deg,
+            10 if fix else 4,
+        )  # fmt: skip
+
+    def vfr_hud(self, i: int, autopilot: Autopilot) -> pm.VfrHud:
+        v = self.v_enu_m_s[i]
+        speed = float(math.hypot(v[0], v[1]))
+        heading = round(math.degrees(frames.wrap_pi(math.pi / 2 - float(self.euler_rad[i, 2]))))
+        throttle = 50 if autopilot.armed else 0
+        return pm.VfrHud(speed, speed, heading % 360, throttle, float(self.alt_m[i]), float(v[2]))
+
+    def battery_status(self, _i: int, _autopilot: Autopilot) -> pm.BatteryStatus:
+        return pm.BatteryStatus(_BATTERY_V, 0.0, 100)
+
+    def rc_channels(self, _i: int, _autopilot: Autopilot) -> pm.RcChannels:
+        """No RC: sticks centred, throttle low (as SITL without a joystick)."""
+        channels = (1500, 1500, 1000, 1500) + (1000,) * 12
+        return pm.RcChannels(self.now_s, 16, channels, 255)
+
+    def mission_current(self, _i: int, autopilot: Autopilot) -> pm.MissionCurrent:
+        store = autopilot.missions
+        return pm.MissionCurrent(store.current_seq, store.count(pm.MissionType.MISSION))
+
+    def autopilot_version(self, _i: int, autopilot: Autopilot) -> pm.AutopilotVersion:
+        return pm.AutopilotVersion(CAPABILITIES, FLIGHT_SW_VERSION, 0, 0, 0, autopilot.sysid)
+
+
+# MAV_PROTOCOL_CAPABILITY: MISSION_FLOAT, PARAM_FLOAT, MISSION_INT, COMMAND_INT,
+# SET_POSITION_TARGET_LOCAL_NED, SET_POSITION_TARGET_GLOBAL_INT, MAVLINK2, MISSION_FENCE,
+# MISSION_RALLY (what ArduCopter announces, without FTP and parameter-union bits).
+CAPABILITIES = 0x1 | 0x2 | 0x4 | 0x8 | 0x80 | 0x100 | 0x2000 | 0x4000 | 0x8000
+FLIGHT_SW_VERSION = (4 << 24) | (7 << 16) | (0 << 8) | 0  # 4.7.0, type "dev"
+
+Builder = Callable[[FleetSnapshot, int, "Autopilot"], m.Message]
+
+BUILDERS: dict[int, Builder] = {
+    HEARTBEAT: lambda snapshot, i, ap: ap.heartbeat(),
+    GLOBAL_POSITION_INT: lambda snapshot, i, ap: snapshot.global_position_int(i),
+    LOCAL_POSITION_NED: lambda snapshot, i, ap: snapshot.local_position_ned(i),
+    ATTITUDE: lambda snapshot, i, ap: snapshot.attitude(i),
+    SYS_STATUS: lambda snapshot, i, ap: snapshot.sys_status(i, ap.prearm_ok(snapshot.now_s)),
+    SYSTEM_TIME: lambda snapshot, i, ap: snapshot.system_time(i),
+    HOME_POSITION: lambda snapshot, i, ap: snapshot.home_position(i),
+    EXTENDED_SYS_STATE: FleetSnapshot.extended_sys_state,
+    GPS_RAW_INT: FleetSnapshot.gps_raw_int,
+    VFR_HUD: FleetSnapshot.vfr_hud,
+    BATTERY_STATUS: FleetSnapshot.battery_status,
+    RC_CHANNELS: FleetSnapshot.rc_channels,
+    MISSION_CURRENT: FleetSnapshot.mission_current,
+    AUTOPILOT_VERSION: FleetSnapshot.autopilot_version,
+}

@@ -10,7 +10,9 @@ channel between the transponders. It speaks MAVLink bytes on named endpoints:
 
 A runner (UDP, lockstep) maps endpoint names to sockets or to in-memory peers. Each call:
 
-1. parse inbound bytes per endpoint; route commands, setpoints and RID messages;
+1. parse inbound bytes per endpoint; route commands (COMMAND_LONG / COMMAND_INT), setpoints,
+   RID messages, and the ground-station protocols (parameters, missions, data streams,
+   TIMESYNC: :mod:`.link_protocols`, one ``LinkResponder`` per endpoint);
 2. advance physics and controllers of all vehicles to ``now_s`` (one compiled call);
 3. run every autopilot's mode logic; let the spoofer broadcast;
 4. carry this tick's RID frames over the radio to the other transponders;
@@ -22,7 +24,7 @@ from __future__ import annotations
 import enum
 import logging
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,6 +32,7 @@ from numpy.typing import NDArray
 
 from ridsafe.common import codec, rng, topics
 from ridsafe.common import messages as m
+from ridsafe.common import protocol_messages as pm
 from ridsafe.common.errors import ClockError
 from ridsafe.common.logsink import LogSink, NullSink
 from ridsafe.common.scenario import Scenario
@@ -43,6 +46,7 @@ from ridsafe.sim_backend.autopilot import (
 )
 from ridsafe.sim_backend.config import SimConfig
 from ridsafe.sim_backend.dynamics import EULER, IDX_PSI, POS_ENU, STATE_SIZE, VEL_ENU
+from ridsafe.sim_backend.link_protocols import LINK_MESSAGES, LinkResponder, timesync_answer
 from ridsafe.sim_backend.radio import RadioChannel, Reception, Transmission
 from ridsafe.sim_backend.spoofer import SpooferBroadcaster, StraightLineMission
 from ridsafe.sim_backend.telemetry import FleetSnapshot, TelemetrySchedule
@@ -81,6 +85,7 @@ class _Port:
     sysid: int
     kind: EndpointKind
     schedule: TelemetrySchedule
+    responder: LinkResponder
 
     @property
     def name(self) -> str:
@@ -221,8 +226,10 @@ class SimBackend:
             senders[TRANSPONDER_COMPONENT] = codec.MavlinkLink(sysid, TRANSPONDER_COMPONENT)
         link = codec.MavlinkLink(sysid, AUTOPILOT_COMPONENT)
         endpoint = self.shell.add(Endpoint(endpoint_name(sysid, kind), link, senders=senders))
-        schedule = TelemetrySchedule(self.config.telemetry_hz.by_id())
-        return _Port(endpoint, sysid, kind, schedule)
+        rates = self.config.telemetry_hz
+        schedule = TelemetrySchedule(rates.by_id(), rates.initial_by_id())
+        serial = 1 if kind is EndpointKind.COMPANION else 0  # SRx_ parameters of the link
+        return _Port(endpoint, sysid, kind, schedule, LinkResponder(sysid, serial))
 
     def _launch_spoofer(self, i: int) -> None:
         """The spoofer starts airborne, armed, flying its line in AUTO."""
@@ -248,6 +255,8 @@ class SimBackend:
         samples = self._samples()
         for autopilot, sample in zip(self.autopilots, samples, strict=True):
             autopilot.update(now_s, sample)
+            for event in autopilot.take_events():
+                self.sink.log(topics.SIM_EVENTS, now_s, event)
         self._spoofer_broadcast(now_s)
         self._carry_air(now_s)
         self._periodic(now_s)
@@ -309,6 +318,11 @@ class SimBackend:
             if frame is not None:
                 self._pending_air.append(Transmission(self.t_s, i, frame))
             return
+        if isinstance(msg, pm.Timesync):
+            answer = timesync_answer(msg, self.t_s)
+            if answer is not None:
+                self._send(endpoint, answer)
+            return
         target = getattr(msg, "target_system", None)
         if target is None:
             return  # heartbeats and other broadcasts from the peer: nothing to do
@@ -324,16 +338,24 @@ class SimBackend:
             )
             return
         autopilot = self.autopilots[i]
-        if isinstance(msg, m.CommandLong):
+        if isinstance(msg, m.CommandLong | pm.CommandInt):
             self._command(endpoint, received, msg, ctx)
         elif isinstance(msg, m.SetMode):
             ack = autopilot.handle_set_mode(msg, ctx)
             self._send(endpoint, _addressed(ack, received))
         elif isinstance(msg, m.SetPositionTargetLocalNed):
             autopilot.handle_position_target(msg, ctx)
+        elif isinstance(msg, LINK_MESSAGES):
+            client = (received.src_system, received.src_component)
+            for out in endpoint.responder.handle(msg, autopilot, endpoint.schedule, ctx, client):
+                self._send(endpoint, out)
 
     def _command(
-        self, endpoint: _Port, received: codec.Received, cmd: m.CommandLong, ctx: CommandContext
+        self,
+        endpoint: _Port,
+        received: codec.Received,
+        cmd: m.CommandLong | pm.CommandInt,
+        ctx: CommandContext,
     ) -> None:
         if cmd.target_component == TRANSPONDER_COMPONENT:
             self.counters.transponder_commands += 1
@@ -389,6 +411,7 @@ class SimBackend:
                     self.fleet.state,
                     self.homes,
                     self.scenario.origin,
+                    self.fleet.on_ground,
                 )
             for msg_id in due:
                 self._send(endpoint, self._telemetry(msg_id, i, snapshot))
@@ -401,10 +424,7 @@ class SimBackend:
                     self._send(endpoint, transponder.arm_status(now_s), transponder=True)
 
     def _telemetry(self, msg_id: int, i: int, snapshot: FleetSnapshot) -> m.Message:
-        if msg_id == telemetry.HEARTBEAT:
-            return self.autopilots[i].heartbeat()
-        builder = _TELEMETRY_BUILDERS[msg_id]
-        return builder(snapshot, i)
+        return telemetry.BUILDERS[msg_id](snapshot, i, self.autopilots[i])
 
     def _endpoints_of(self, sysid: int) -> list[_Port]:
         return [e for e in self.endpoints.values() if e.sysid == sysid]
@@ -436,16 +456,6 @@ class SimBackend:
 
     def link_counters(self) -> dict[str, codec.LinkCounters]:
         return self.shell.link_counters()
-
-
-_TELEMETRY_BUILDERS: dict[int, Callable[[FleetSnapshot, int], m.Message]] = {
-    telemetry.GLOBAL_POSITION_INT: FleetSnapshot.global_position_int,
-    telemetry.LOCAL_POSITION_NED: FleetSnapshot.local_position_ned,
-    telemetry.ATTITUDE: FleetSnapshot.attitude,
-    telemetry.SYS_STATUS: FleetSnapshot.sys_status,
-    telemetry.SYSTEM_TIME: FleetSnapshot.system_time,
-    telemetry.HOME_POSITION: FleetSnapshot.home_position,
-}
 
 
 def _addressed(ack: m.CommandAck, received: codec.Received) -> m.CommandAck:

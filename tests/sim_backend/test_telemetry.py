@@ -114,9 +114,16 @@ def test_set_interval_in_microseconds() -> None:
 
 def test_unknown_message_ids_are_refused() -> None:
     schedule = TelemetrySchedule(TelemetryRatesHz().by_id())
-    assert schedule.set_interval(24, 100_000) is False  # GPS_RAW_INT: not streamed here
-    assert schedule.request_once(24) is False
+    assert schedule.set_interval(26, 100_000) is False  # SCALED_IMU: the sim has no IMU data
+    assert schedule.request_once(26) is False
+    assert 26 not in _run(schedule, TICKS[:300])
+
+
+def test_gps_raw_int_is_off_until_asked_for() -> None:
+    schedule = TelemetrySchedule(TelemetryRatesHz().by_id())
     assert 24 not in _run(schedule, TICKS[:300])
+    assert schedule.set_interval(24, 100_000) is True
+    assert abs(len(_run(schedule, [6.0 + t for t in TICKS])[24]) - 100) <= 1
 
 
 def test_request_once_sends_a_stopped_message_exactly_once() -> None:
@@ -273,4 +280,9 @@ def test_home_system_time_and_status() -> None:
     assert home.p_ned_m == (0.0, 0.0, 0.0)
     assert snapshot.system_time(0) == m.SystemTime(UNIX_S, NOW_S)
     status = snapshot.sys_status(0)
-    assert status.sensors_present == status.sensors_enabled == status.sensors_health != 0
+    prearm, geofence = 0x10000000, 0x100000
+    assert status.sensors_present == status.sensors_enabled
+    assert status.sensors_present & status.sensors_health == status.sensors_present
+    assert status.sensors_health & geofence and not status.sensors_present & geofence
+    waiting = snapshot.sys_status(0, prearm_ok=False)
+    assert waiting.sensors_present & prearm and not waiting.sensors_health & prearm

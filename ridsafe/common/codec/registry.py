@@ -15,11 +15,16 @@ from collections.abc import Callable
 from typing import Any
 
 from ridsafe.common import messages as m
-from ridsafe.common.codec import odid, ridsafe_messages, standard
+from ridsafe.common.codec import odid, protocols, ridsafe_messages, standard
 from ridsafe.common.codec.units import CodecTable, FromMav, Wire
 from ridsafe.common.errors import WireError
 
-CODECS: CodecTable = {**standard.CODECS, **odid.CODECS, **ridsafe_messages.CODECS}
+CODECS: CodecTable = {
+    **standard.CODECS,
+    **odid.CODECS,
+    **ridsafe_messages.CODECS,
+    **protocols.CODECS,
+}
 _FROM_NAME: dict[str, FromMav] = {name: dec for name, _, dec in CODECS.values()}
 for _name in odid.RAW_NAMES:
     _FROM_NAME[_name] = odid.odid_raw_from

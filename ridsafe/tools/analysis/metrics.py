@@ -41,6 +41,8 @@ becomes arrays (truth interpolation) in :mod:`ridsafe.tools.analysis.run_arrays`
 - ``false_alerts_per_aircraft_hour``: ``false_alerts`` over the benign aircraft's flight
   time (number of benign aircraft times the truth's time span, in hours); None without
   benign aircraft or truth.
+- ``autopilot_failsafes``: companion-loss failsafes the sim's autopilots took
+  (``/sim/events``); 0 in a healthy run.
 - ``wall_clock_s``: ``/run/end``'s wall clock; None when the run has no end record.
 - ``gcs_compute_s``: sum of ``/gcs/cycle`` ``compute_ms`` / 1000; ``gcs_update_p99_ms``
   and ``planner_decision_p99_ms`` (``/companion/decisions``): 99th percentile of
@@ -101,6 +103,7 @@ METRIC_KEYS: tuple[str, ...] = (
     "gcs_compute_s",
     "gcs_update_p99_ms",
     "planner_decision_p99_ms",
+    "autopilot_failsafes",
 )
 
 
@@ -323,4 +326,5 @@ def compute_metrics(
         else None,
         "gcs_update_p99_ms": _percentile(run.gcs_compute_ms, 99.0),
         "planner_decision_p99_ms": _percentile(run.decision_compute_ms, 99.0),
+        "autopilot_failsafes": run.autopilot_failsafes,
     }

@@ -59,6 +59,7 @@ _TOPICS = (
     topics.REGIONS,
     topics.GCS_CYCLE,
     topics.DECISIONS,
+    topics.SIM_EVENTS,
 )
 
 
@@ -155,6 +156,7 @@ class RunLog:
     gcs_compute_ms: FloatArray
     decision_compute_ms: FloatArray
     spoofer_heard_s: float | None = None  # heard by DETECTION_RECEIVERS aircraft
+    autopilot_failsafes: int = 0  # /sim/events records (companion-loss failsafes)
 
     def __post_init__(self) -> None:
         _freeze(
@@ -207,6 +209,7 @@ def load_run(path: str | os.PathLike[str]) -> RunLog:
         gcs_compute_ms=_compute_ms(by_topic[topics.GCS_CYCLE]),
         decision_compute_ms=_compute_ms(by_topic[topics.DECISIONS]),
         spoofer_heard_s=None if spoofer_sysid is None else heard_by_s(path, spoofer_sysid),
+        autopilot_failsafes=len(by_topic[topics.SIM_EVENTS]),
     )
 
 

@@ -58,6 +58,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument(
         "--planner", choices=sorted(PLANNERS), help="planner name (default: run.planner)"
     )
+    parser.add_argument(
+        "--keep-running",
+        action="store_true",
+        help="stay up after every mission is DONE or FAILED (default: exit then)",
+    )
     parser.set_defaults(func=run)
 
 
@@ -126,6 +131,18 @@ def _connections(
     }
 
 
+class _StopWhenDone:
+    """Stops the app once every companion's mission has ended (DONE or FAILED)."""
+
+    def __init__(self, app: CompanionApp) -> None:
+        self.app = app
+
+    def __call__(self, _now_s: float) -> None:
+        companions = self.app.fleet.companions.values()
+        if all(c.phase in (Phase.DONE, Phase.FAILED) for c in companions):
+            self.app.stop()
+
+
 def run(args: argparse.Namespace) -> int:
     try:
         app_args.check_speed(args)
@@ -156,7 +173,8 @@ def run(args: argparse.Namespace) -> int:
     app_args.wait_for_start(args, f"companion {args.vehicle}")
     restore = process.stop_on_sigterm(app.stop)
     try:
-        app.run(until_s=args.duration)
+        on_tick = None if args.keep_running else _StopWhenDone(app)
+        app.run(until_s=args.duration, on_tick=on_tick)
     except KeyboardInterrupt:
         print("\nstopped", file=sys.stderr)
     finally:

@@ -35,6 +35,7 @@ _DISPLAY: dict[str, tuple[str, str, str]] = {
     "gcs_compute_s": ("GCS compute", "s", ".2f"),
     "gcs_update_p99_ms": ("GCS update p99", "ms", ".2f"),
     "planner_decision_p99_ms": ("planner decision p99", "ms", ".2f"),
+    "autopilot_failsafes": ("autopilot failsafes", "events", "d"),
 }
 
 

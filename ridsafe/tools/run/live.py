@@ -169,6 +169,7 @@ def children(
         argv = cli_argv(
             "companion", *common, "--vehicle", f"{group[0]}-{group[-1]}", "--gcs", gcs_out,
             "--planner", planner, *signing, "--log", str(parts / f"{name}.mcap"),
+            "--keep-running",  # landed aircraft keep broadcasting until the run ends
         )  # fmt: skip
         started.append(Child(name, argv, logs / f"{name}.log"))
     return started
