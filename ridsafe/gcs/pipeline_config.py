@@ -49,6 +49,7 @@ __all__ = [
     "MultilaterationConfig",
     "PipelineConfig",
     "RegionConfig",
+    "RegionPublishConfig",
     "RssiFilterConfig",
     "TrackConfig",
 ]
@@ -311,12 +312,49 @@ class TrackConfig:
 
 
 @dataclass(frozen=True)
+class RegionPublishConfig:
+    """How an estimate becomes the published region (``region/publishing.py``). Off by
+    default: the region is the estimate's own mean and covariance. ``enabled`` publishes as the
+    authors' code did (docs/paper_mode.md): every covariance clamped to std
+    [``std_min_m``, ``std_max_m``] along its eigenvectors; after the first, the centre moves at
+    most ``max_center_step_m`` per cycle towards the estimate, the covariance trace grows at
+    most by the factor ``max_trace_growth`` per cycle, then both are smoothed by exponential
+    moving averages of gains ``center_ema_gain`` / ``cov_ema_gain`` (1 = no smoothing)."""
+
+    enabled: bool = False
+    std_min_m: float = 4.0
+    std_max_m: float = 35.0
+    center_ema_gain: float = 0.35
+    cov_ema_gain: float = 0.25
+    #: 0 disables the step limit; 0 disables the growth limit.
+    max_center_step_m: float = 30.0
+    max_trace_growth: float = 1.8
+
+    def __post_init__(self) -> None:
+        check_positive("std_min_m", self.std_min_m)
+        if not self.std_max_m >= self.std_min_m:
+            raise FieldValueError(
+                "std_max_m", f"expected >= std_min_m ({self.std_min_m}), got {self.std_max_m}"
+            )
+        for name in ("center_ema_gain", "cov_ema_gain"):
+            gain = getattr(self, name)
+            if not 0.0 < gain <= 1.0:
+                raise FieldValueError(name, f"expected 0 < gain <= 1, got {gain}")
+        check_non_negative("max_center_step_m", self.max_center_step_m)
+        if self.max_trace_growth != 0.0 and self.max_trace_growth < 1.0:
+            raise FieldValueError(
+                "max_trace_growth", f"expected 0 (off) or >= 1, got {self.max_trace_growth}"
+            )
+
+
+@dataclass(frozen=True)
 class RegionConfig:
     """Chance-constrained unsafe region (paper eq. (10)-(11))."""
 
     alpha: float = 0.05
     #: A region may be used until this long after the estimate it comes from.
     validity_s: float = 1.0
+    publish: RegionPublishConfig = field(default_factory=RegionPublishConfig)
 
     def __post_init__(self) -> None:
         if not 0.0 < self.alpha < 1.0:
