@@ -56,6 +56,7 @@ from numpy.typing import NDArray
 
 from ridsafe.common.ellipsoid import mahalanobis2
 from ridsafe.tools.analysis.encounters import airborne, count_entry_events, pair_entry_events
+from ridsafe.tools.analysis.paper_metrics import PAPER_METRIC_KEYS, paper_metrics
 from ridsafe.tools.analysis.run_arrays import Regions, RunLog, Truth, load_run
 
 __all__ = [
@@ -95,6 +96,7 @@ METRIC_KEYS: tuple[str, ...] = (
     "gcs_compute_s",
     "gcs_update_p99_ms",
     "planner_decision_p99_ms",
+    *PAPER_METRIC_KEYS,  # the paper's own definitions: analysis/paper_metrics.py
 )
 
 
@@ -298,4 +300,5 @@ def compute_metrics(
         else None,
         "gcs_update_p99_ms": _percentile(run.gcs_compute_ms, 99.0),
         "planner_decision_p99_ms": _percentile(run.decision_compute_ms, 99.0),
+        **paper_metrics(run, min_height_m),
     }
