@@ -43,6 +43,7 @@ from ridsafe.common.messages import RidsafeDetector
 from ridsafe.gcs.localisation.registry import DEFAULT_ESTIMATOR, check_estimator
 
 __all__ = [
+    "AuthorsImmConfig",
     "DetectionConfig",
     "ForcedAlertConfig",
     "ImmConfig",
@@ -181,6 +182,50 @@ class ImmConfig:
         check_covariance_diagonal("r_ca_diag", self.r_ca_diag, 3, strictly_positive=True)
         check_positive("lift_accel_var_m2_s4", self.lift_accel_var_m2_s4)
         check_non_negative("gate_chi2", self.gate_chi2)
+
+
+@dataclass(frozen=True)
+class AuthorsImmConfig:
+    """``estimator: authors_imm`` (``localisation/authors_imm.py``): the NLLS -> IMM as the
+    authors' code ran it for the paper's tables (docs/paper_mode.md), with ``ImmConfig``'s dt,
+    mu0, Q and R (R only for the fixes that start the track). Defaults: their values."""
+
+    #: Initial variance of every state before the first fix.
+    p0_var: float = 500.0
+    #: Every mode's position covariance and the fused one: eigenvalues kept in these (m^2).
+    pos_var_bounds_m2: tuple[float, float] = (4.0, 2500.0)
+    #: A fix's covariance: eigenvalues kept in these (m^2).
+    meas_var_bounds_m2: tuple[float, float] = (4.0, 6400.0)
+    #: Mode-weighted NIS above ``soft_gate_chi2`` scales R by NIS / gate (at most
+    #: ``downweight_max``); above ``reject_chi2`` the fix is dropped.
+    soft_gate_chi2: float = 11.34
+    reject_chi2: float = 60.0
+    downweight_max: float = 16.0
+    #: After an update with NIS above the gate, P *= 1 + gain (NIS / gate - 1), at most max.
+    inflate_gain: float = 0.25
+    inflate_max: float = 8.0
+    #: The tracked transmit power follows each joint fix's by this gain, at most this step.
+    tx_power_ema_gain: float = 0.2
+    tx_power_max_step_db: float = 2.0
+    max_speed_m_s: float = 120.0
+    max_accel_m_s2: float = 40.0
+
+    def __post_init__(self) -> None:
+        for name in ("p0_var", "soft_gate_chi2", "reject_chi2", "max_speed_m_s", "max_accel_m_s2"):
+            check_positive(name, getattr(self, name))
+        for name in ("pos_var_bounds_m2", "meas_var_bounds_m2"):
+            low, high = getattr(self, name)
+            if not 0.0 < low <= high:
+                raise FieldValueError(name, f"expected 0 < low <= high, got {low}, {high}")
+        for name in ("downweight_max", "inflate_max"):
+            if getattr(self, name) < 1.0:
+                raise FieldValueError(name, f"expected >= 1, got {getattr(self, name)}")
+        check_non_negative("inflate_gain", self.inflate_gain)
+        if not 0.0 < self.tx_power_ema_gain <= 1.0:
+            raise FieldValueError(
+                "tx_power_ema_gain", f"expected (0, 1], got {self.tx_power_ema_gain}"
+            )
+        check_positive("tx_power_max_step_db", self.tx_power_max_step_db)
 
 
 @dataclass(frozen=True)
@@ -391,6 +436,7 @@ class PipelineConfig:
     multilateration: MultilaterationConfig = field(default_factory=MultilaterationConfig)
     imm: ImmConfig = field(default_factory=ImmConfig)
     rssi_filter: RssiFilterConfig = field(default_factory=RssiFilterConfig)
+    authors_imm: AuthorsImmConfig = field(default_factory=AuthorsImmConfig)
     tracks: TrackConfig = field(default_factory=TrackConfig)
     region: RegionConfig = field(default_factory=RegionConfig)
     forced_alert: ForcedAlertConfig = field(default_factory=ForcedAlertConfig)
