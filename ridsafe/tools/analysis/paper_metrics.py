@@ -9,8 +9,9 @@ that a paper-mode run can be set against the published table like for like:
   truth sample; truth interpolated at ``t_k``. The region at a tick is the latest
   ``/gcs/unsafe_regions`` record at or before it, of any uas_id, while its ``t_s`` is within
   ``PAPER_TICK_S`` (the GCS publishes one per cycle).
-- Arrived aircraft: a benign aircraft that has come within ``ARRIVED_WITHIN_M`` (10 m, 3D) of
-  its goal is excluded from every count from that tick on (latched). Ours keep counting any
+- Arrived aircraft: a benign aircraft that has come within ``ARRIVED_WITHIN_M`` (10 m) of
+  its goal is excluded from every count from that tick on (latched). Theirs measure 3D to an
+  airborne goal; our goals are on the ground and aircraft arrive above them, so horizontally. Ours keep counting any
   airborne aircraft. Airborne (armed, z >= ``min_height_m``) still applies: their aircraft
   were all airborne from t = 0, ours take off.
 - ``paper_nmac_benign_benign`` / ``paper_nmac_benign_spoofer``: entry events (a pair within
@@ -86,7 +87,7 @@ def _active_benign(
         if goal is None:
             continue
         with np.errstate(invalid="ignore"):
-            near = np.linalg.norm(p[:, b] - np.asarray(goal), axis=-1) <= ARRIVED_WITHIN_M
+            near = np.linalg.norm(p[:, b, :2] - np.asarray(goal)[:2], axis=-1) <= ARRIVED_WITHIN_M
         active[:, b] &= ~np.logical_or.accumulate(near)
     return active
 
