@@ -11,8 +11,9 @@ that a paper-mode run can be set against the published table like for like:
   ``PAPER_TICK_S`` (the GCS publishes one per cycle).
 - Arrived aircraft: a benign aircraft that has come within ``ARRIVED_WITHIN_M`` (10 m) of
   its goal is excluded from every count from that tick on (latched). Theirs measure 3D to an
-  airborne goal; our goals are on the ground and aircraft arrive above them, so horizontally. Ours keep counting any
-  airborne aircraft. Airborne (armed, z >= ``min_height_m``) still applies: their aircraft
+  airborne goal; our goals are on the ground and aircraft arrive above them, so horizontally.
+  Ours keep counting any airborne aircraft. Airborne (armed, z >= ``min_height_m``) still
+  applies: their aircraft
   were all airborne from t = 0, ours take off.
 - ``paper_nmac_benign_benign`` / ``paper_nmac_benign_spoofer``: entry events (a pair within
   50 m at a tick and not at the previous one) over the ticks, both aircraft counted.
