@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -26,7 +27,7 @@ SPOOFER_AT = (0.0, 0.0, 60.0)
 COV_100 = np.eye(3) * 100.0
 
 
-def _regions(start_s: float, end_s: float, center: tuple[float, float, float]) -> list[object]:
+def _regions(start_s: float, end_s: float, center: tuple[float, float, float]) -> list[Any]:
     times = np.round(np.arange(start_s, end_s + 1e-9, 0.25), 10)
     return [region(float(t), center, COV_100) for t in times]
 
@@ -40,7 +41,7 @@ def test_mean_radius_counts_zero_before_the_first_region(tmp_path: Path) -> None
     spec = RunSpec(
         benign=[still((1000.0, 0.0, 60.0))],
         spoofer=still(SPOOFER_AT),
-        extra=[alert(30.0), *_regions(30.0, 60.0, SPOOFER_AT)],  # type: ignore[list-item]
+        extra=[alert(30.0), *_regions(30.0, 60.0, SPOOFER_AT)],
     )
     m = metrics_of(tmp_path, spec)
     semi_axis = math.sqrt(CHI2_95 * 100.0)
@@ -53,7 +54,7 @@ def test_rmse_is_of_the_region_centre_not_the_track(tmp_path: Path) -> None:
     spec = RunSpec(
         benign=[still((1000.0, 0.0, 60.0))],
         spoofer=still(SPOOFER_AT),
-        extra=[  # type: ignore[list-item]
+        extra=[
             alert(10.0),
             *_regions(10.0, 60.0, (30.0, 40.0, 60.0)),
             *[track(float(t), SPOOFER_AT) for t in np.arange(10.0, 60.0, 0.25)],
@@ -92,11 +93,11 @@ def test_pass_before_arrival_still_counts(tmp_path: Path) -> None:
 def test_violations_count_per_aircraft_over_all_regions(tmp_path: Path) -> None:
     # Two overlapping regions (two uas_ids) on PASSER's path: ours counts an entry into
     # each (2), the paper one entry into "any region" (1).
-    extra: list[object] = [alert(0.0)]
+    extra: list[Any] = [alert(0.0)]
     for t in np.round(np.arange(0.0, 60.0 + 1e-9, 0.25), 10):
         extra.append(region(float(t), (0.0, 0.0, 60.0), COV_100))
         extra.append(region(float(t), (5.0, 0.0, 60.0), COV_100, uas_id="RSAF800000777"))
-    spec = RunSpec(benign=[PASSER], spoofer=still((0.0, 500.0, 60.0)), extra=extra)  # type: ignore[arg-type]
+    spec = RunSpec(benign=[PASSER], spoofer=still((0.0, 500.0, 60.0)), extra=extra)
     m = metrics_of(tmp_path, spec)
     assert m["unsafe_violations"] == 2
     assert m["paper_unsafe_violations"] == 1
