@@ -22,7 +22,8 @@ since the last cycle, and answers what it decided. Each cycle:
 4. a track whose transmitter was silent ``silence_timeout_s`` is deleted and its alert
    CLEARED (an alert latches while the transmitter is heard: a spoofer that turns honest
    keeps its region until it goes quiet; after a clear, new evidence raises it again);
-5. every live track is predicted to ``now_s`` -> ``TrackEstimate`` and ``UnsafeRegion``.
+5. every live track is predicted to ``now_s`` -> ``TrackEstimate`` and ``UnsafeRegion`` (as
+   ``region/publishing.py`` publishes it: the estimate itself unless configured).
 
 The compute time of each cycle is logged (DEBUG) and kept in ``compute_s``. The matrices are
 tiny: run the GCS with ``OPENBLAS_NUM_THREADS=1`` (set before numpy is imported); BLAS worker
@@ -54,6 +55,7 @@ from ridsafe.gcs.pipeline_api import (
 )
 from ridsafe.gcs.pipeline_config import PipelineConfig, TrackConfig
 from ridsafe.gcs.pipeline_kernels import all_finite
+from ridsafe.gcs.region.publishing import RegionPublisher
 from ridsafe.gcs.region.unsafe_region import make_region
 from ridsafe.gcs.tracks import Track, finite, initiate
 
@@ -148,6 +150,7 @@ class EstimationPipeline:
         self._tracks: dict[str, Track] = {}
         self._next_track_id = 1
         self._forced_done = False
+        self._publisher = RegionPublisher(self.config.region.publish)
         self.compute_s: deque[float] = deque(maxlen=COMPUTE_HISTORY)
 
     # --- the GcsPipeline protocol ---------------------------------------------------------
@@ -261,6 +264,7 @@ class EstimationPipeline:
             cleared.append(AlertChange(uas_id, alert.detector, 0.0, 0.0, AlertState.CLEARED))
             if self._tracks.pop(uas_id, None) is not None:
                 deleted.append(uas_id)
+                self._publisher.forget(uas_id)
                 logger.info("track on %s deleted after %.1f s of silence", uas_id, timeout)
         for uas_id, heard in list(self._heard.items()):
             if now_s - heard.last_heard_s > FORGET_AFTER_S and uas_id not in self._alerts:
@@ -282,15 +286,10 @@ class EstimationPipeline:
                 logger.warning("track %d on %s is not finite: skipped", track.track_id, est.uas_id)
                 continue
             estimates.append(est)
+            center, cov = self._publisher.publish(est.uas_id, est.p_enu_m, est.cov_enu_m2)
             regions.append(
                 make_region(
-                    est.uas_id,
-                    est.track_id,
-                    now_s,
-                    est.p_enu_m,
-                    est.cov_enu_m2,
-                    est.v_enu_m_s,
-                    self.config.region,
+                    est.uas_id, est.track_id, now_s, center, cov, est.v_enu_m_s, self.config.region
                 )
             )
         return CycleOutput(

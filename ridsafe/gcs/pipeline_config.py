@@ -44,12 +44,14 @@ from ridsafe.gcs.calibration.config import CalibrationConfig
 from ridsafe.gcs.localisation.registry import DEFAULT_ESTIMATOR, check_estimator
 
 __all__ = [
+    "AuthorsImmConfig",
     "DetectionConfig",
     "ForcedAlertConfig",
     "ImmConfig",
     "MultilaterationConfig",
     "PipelineConfig",
     "RegionConfig",
+    "RegionPublishConfig",
     "RssiFilterConfig",
     "TrackConfig",
 ]
@@ -184,6 +186,50 @@ class ImmConfig:
 
 
 @dataclass(frozen=True)
+class AuthorsImmConfig:
+    """``estimator: authors_imm`` (``localisation/authors_imm.py``): the NLLS -> IMM as the
+    authors' code ran it for the paper's tables (docs/paper_mode.md), with ``ImmConfig``'s dt,
+    mu0, Q and R (R only for the fixes that start the track). Defaults: their values."""
+
+    #: Initial variance of every state before the first fix.
+    p0_var: float = 500.0
+    #: Every mode's position covariance and the fused one: eigenvalues kept in these (m^2).
+    pos_var_bounds_m2: tuple[float, float] = (4.0, 2500.0)
+    #: A fix's covariance: eigenvalues kept in these (m^2).
+    meas_var_bounds_m2: tuple[float, float] = (4.0, 6400.0)
+    #: Mode-weighted NIS above ``soft_gate_chi2`` scales R by NIS / gate (at most
+    #: ``downweight_max``); above ``reject_chi2`` the fix is dropped.
+    soft_gate_chi2: float = 11.34
+    reject_chi2: float = 60.0
+    downweight_max: float = 16.0
+    #: After an update with NIS above the gate, P *= 1 + gain (NIS / gate - 1), at most max.
+    inflate_gain: float = 0.25
+    inflate_max: float = 8.0
+    #: The tracked transmit power follows each joint fix's by this gain, at most this step.
+    tx_power_ema_gain: float = 0.2
+    tx_power_max_step_db: float = 2.0
+    max_speed_m_s: float = 120.0
+    max_accel_m_s2: float = 40.0
+
+    def __post_init__(self) -> None:
+        for name in ("p0_var", "soft_gate_chi2", "reject_chi2", "max_speed_m_s", "max_accel_m_s2"):
+            check_positive(name, getattr(self, name))
+        for name in ("pos_var_bounds_m2", "meas_var_bounds_m2"):
+            low, high = getattr(self, name)
+            if not 0.0 < low <= high:
+                raise FieldValueError(name, f"expected 0 < low <= high, got {low}, {high}")
+        for name in ("downweight_max", "inflate_max"):
+            if getattr(self, name) < 1.0:
+                raise FieldValueError(name, f"expected >= 1, got {getattr(self, name)}")
+        check_non_negative("inflate_gain", self.inflate_gain)
+        if not 0.0 < self.tx_power_ema_gain <= 1.0:
+            raise FieldValueError(
+                "tx_power_ema_gain", f"expected (0, 1], got {self.tx_power_ema_gain}"
+            )
+        check_positive("tx_power_max_step_db", self.tx_power_max_step_db)
+
+
+@dataclass(frozen=True)
 class RssiFilterConfig:
     """Ours (``estimator: rssi_imm``): a Gaussian sum of IMMs (CV + CA, the paper's dt, mu0 and
     transition matrix from :class:`ImmConfig`) whose mode filters carry the transmit power as
@@ -312,12 +358,49 @@ class TrackConfig:
 
 
 @dataclass(frozen=True)
+class RegionPublishConfig:
+    """How an estimate becomes the published region (``region/publishing.py``). Off by
+    default: the region is the estimate's own mean and covariance. ``enabled`` publishes as the
+    authors' code did (docs/paper_mode.md): every covariance clamped to std
+    [``std_min_m``, ``std_max_m``] along its eigenvectors; after the first, the centre moves at
+    most ``max_center_step_m`` per cycle towards the estimate, the covariance trace grows at
+    most by the factor ``max_trace_growth`` per cycle, then both are smoothed by exponential
+    moving averages of gains ``center_ema_gain`` / ``cov_ema_gain`` (1 = no smoothing)."""
+
+    enabled: bool = False
+    std_min_m: float = 4.0
+    std_max_m: float = 35.0
+    center_ema_gain: float = 0.35
+    cov_ema_gain: float = 0.25
+    #: 0 disables the step limit; 0 disables the growth limit.
+    max_center_step_m: float = 30.0
+    max_trace_growth: float = 1.8
+
+    def __post_init__(self) -> None:
+        check_positive("std_min_m", self.std_min_m)
+        if not self.std_max_m >= self.std_min_m:
+            raise FieldValueError(
+                "std_max_m", f"expected >= std_min_m ({self.std_min_m}), got {self.std_max_m}"
+            )
+        for name in ("center_ema_gain", "cov_ema_gain"):
+            gain = getattr(self, name)
+            if not 0.0 < gain <= 1.0:
+                raise FieldValueError(name, f"expected 0 < gain <= 1, got {gain}")
+        check_non_negative("max_center_step_m", self.max_center_step_m)
+        if self.max_trace_growth != 0.0 and self.max_trace_growth < 1.0:
+            raise FieldValueError(
+                "max_trace_growth", f"expected 0 (off) or >= 1, got {self.max_trace_growth}"
+            )
+
+
+@dataclass(frozen=True)
 class RegionConfig:
     """Chance-constrained unsafe region (paper eq. (10)-(11))."""
 
     alpha: float = 0.05
     #: A region may be used until this long after the estimate it comes from.
     validity_s: float = 1.0
+    publish: RegionPublishConfig = field(default_factory=RegionPublishConfig)
 
     def __post_init__(self) -> None:
         if not 0.0 < self.alpha < 1.0:
@@ -354,6 +437,7 @@ class PipelineConfig:
     multilateration: MultilaterationConfig = field(default_factory=MultilaterationConfig)
     imm: ImmConfig = field(default_factory=ImmConfig)
     rssi_filter: RssiFilterConfig = field(default_factory=RssiFilterConfig)
+    authors_imm: AuthorsImmConfig = field(default_factory=AuthorsImmConfig)
     tracks: TrackConfig = field(default_factory=TrackConfig)
     region: RegionConfig = field(default_factory=RegionConfig)
     forced_alert: ForcedAlertConfig = field(default_factory=ForcedAlertConfig)

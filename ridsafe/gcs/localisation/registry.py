@@ -41,6 +41,9 @@ ESTIMATORS: dict[str, str] = {
     "rssi_imm": "ridsafe.gcs.localisation.gaussian_sum:start",
     # the paper's: an NLLS fix per claim -> linear IMM update
     "nlls_imm": "ridsafe.gcs.localisation.nlls_imm:start",
+    # the paper's as the authors' code ran it: EMA-tracked power, inflated fix covariance,
+    # no mode mixing, soft gating (docs/paper_mode.md)
+    "authors_imm": "ridsafe.gcs.localisation.authors_imm:start",
 }
 
 DEFAULT_ESTIMATOR = "rssi_imm"

@@ -63,6 +63,7 @@ from numpy.typing import NDArray
 
 from ridsafe.common.ellipsoid import mahalanobis2
 from ridsafe.tools.analysis.encounters import airborne, count_entry_events, pair_entry_events
+from ridsafe.tools.analysis.paper_metrics import PAPER_METRIC_KEYS, paper_metrics
 from ridsafe.tools.analysis.run_arrays import Regions, RunLog, Truth, load_run
 
 __all__ = [
@@ -104,6 +105,7 @@ METRIC_KEYS: tuple[str, ...] = (
     "gcs_update_p99_ms",
     "planner_decision_p99_ms",
     "autopilot_failsafes",
+    *PAPER_METRIC_KEYS,  # the paper's own definitions: analysis/paper_metrics.py
 )
 
 
@@ -327,4 +329,5 @@ def compute_metrics(
         "gcs_update_p99_ms": _percentile(run.gcs_compute_ms, 99.0),
         "planner_decision_p99_ms": _percentile(run.decision_compute_ms, 99.0),
         "autopilot_failsafes": run.autopilot_failsafes,
+        **paper_metrics(run, min_height_m),
     }

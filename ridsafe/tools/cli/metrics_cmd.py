@@ -36,6 +36,14 @@ _DISPLAY: dict[str, tuple[str, str, str]] = {
     "gcs_update_p99_ms": ("GCS update p99", "ms", ".2f"),
     "planner_decision_p99_ms": ("planner decision p99", "ms", ".2f"),
     "autopilot_failsafes": ("autopilot failsafes", "events", "d"),
+    # The paper's own definitions (analysis/paper_metrics.py): 0.25 s ticks, arrived excluded.
+    "paper_nmac_benign_benign": ("paper: NMAC benign-benign", "events", "d"),
+    "paper_nmac_benign_spoofer": ("paper: NMAC benign-spoofer", "events", "d"),
+    "paper_unsafe_violations": ("paper: unsafe violations", "events", "d"),
+    "paper_containment_rate": ("paper: containment", "", ".3f"),
+    "paper_rmse_m": ("paper: region-centre RMSE", "m", ".1f"),
+    "paper_mae_m": ("paper: region-centre MAE", "m", ".1f"),
+    "paper_mean_ellipsoid_radius_m": ("paper: mean ellipsoid radius", "m", ".1f"),
 }
 
 

@@ -13,7 +13,7 @@ import pytest
 
 from ridsafe.common.config import from_mapping
 from ridsafe.common.errors import ConfigError, FieldValueError
-from ridsafe.gcs.localisation import gaussian_sum, nlls_imm
+from ridsafe.gcs.localisation import authors_imm, gaussian_sum, nlls_imm
 from ridsafe.gcs.localisation.api import StartLocaliser, estimator_start
 from ridsafe.gcs.localisation.registry import DEFAULT_ESTIMATOR, ESTIMATORS
 from ridsafe.gcs.pipeline_api import ObservedClaim, UnsafeRegion
@@ -23,7 +23,11 @@ from ridsafe.gcs.synthetic.traffic import SPOOFER_ID, Scene, make_traffic
 from ridsafe.gcs.tracking.imm import Gaussian
 
 #: mypy checks that the built-in start functions have the registry's signature.
-BUILT_IN: dict[str, StartLocaliser] = {"rssi_imm": gaussian_sum.start, "nlls_imm": nlls_imm.start}
+BUILT_IN: dict[str, StartLocaliser] = {
+    "rssi_imm": gaussian_sum.start,
+    "nlls_imm": nlls_imm.start,
+    "authors_imm": authors_imm.start,
+}
 
 CENTROID_VARIANCE_M2 = 1.0e4
 
