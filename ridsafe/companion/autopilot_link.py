@@ -6,6 +6,20 @@ LOCAL_POSITION_NED, HOME_POSITION, SYSTEM_TIME (each time-stamped message also u
 autopilot clock estimate) and STATUSTEXT (logged). The link is up while a HEARTBEAT came
 within ``autopilot_timeout_s``; losing and regaining it are events. COMMAND_ACK belongs to
 the mission (``MissionDriver.on_ack``).
+
+Two plausibility rules keep one forged datagram with the autopilot's ids (they reach a core
+in-process, or over UDP before the runner has locked the link's peer) from steering the
+companion; each refusal is counted and the real stream is unaffected:
+
+- **clock**: a time-stamped message whose boot time would move the autopilot clock estimate
+  more than ``MAX_CLOCK_STEP_S`` ahead of where it is (a real clock advances with arrival
+  time; only a reboot moves it, and a reboot moves it back, which ``OwnTelemetry`` handles)
+  is dropped whole (``clock_jumps``): log records are never stamped with such times;
+- **disarm in flight**: a HEARTBEAT saying "disarmed" while fresh telemetry (a
+  GLOBAL_POSITION_INT younger than ``FRESH_TELEMETRY_S``) puts the aircraft more than
+  ``AIRBORNE_ALT_M`` above home is dropped (``implausible_disarm``): a multirotor that really
+  disarms in the air falls, its telemetry says so within a second or two, and the next
+  disarmed HEARTBEAT is then taken. A forged one therefore cannot end a mission in flight.
 """
 
 from __future__ import annotations
@@ -20,11 +34,20 @@ from ridsafe.companion.telemetry import OwnTelemetry
 
 __all__ = ["AutopilotCounters", "AutopilotWatch", "mode_name"]
 
+#: How far ahead of its estimate (s) one message may move the autopilot clock.
+MAX_CLOCK_STEP_S = 5.0
+#: Above home by more than this (m), per fresh telemetry, the aircraft is flying.
+AIRBORNE_ALT_M = 1.0
+#: Telemetry younger than this (s, companion time) is fresh enough to judge a HEARTBEAT by.
+FRESH_TELEMETRY_S = 2.0
+
 
 @dataclass
 class AutopilotCounters:
     unused_autopilot: int = 0  # decoded but not for us (e.g. GCS messages on this link)
     autopilot_lost: int = 0
+    clock_jumps: int = 0  # time-stamped messages dropped: their clock was implausible
+    implausible_disarm: int = 0  # "disarmed" HEARTBEATs dropped while telemetry says flying
 
 
 def mode_name(custom_mode: int) -> str:
@@ -49,7 +72,22 @@ class AutopilotWatch:
         if handler is None:
             self.counters.unused_autopilot += 1
             return
+        if not self._clock_plausible(now_s, msg):
+            self.counters.clock_jumps += 1
+            return
         handler(self, now_s, msg)
+
+    def _clock_plausible(self, now_s: float, msg: m.Message) -> bool:
+        time_boot_s = getattr(msg, "time_boot_s", None)
+        offset = self.own.clock_offset_s
+        if time_boot_s is None or offset is None:
+            return True
+        return bool(time_boot_s - now_s <= offset + MAX_CLOCK_STEP_S)
+
+    def _flying(self, now_s: float) -> bool:
+        gpi = self.own.gpi
+        fresh = gpi is not None and now_s - self.own.gpi_s <= FRESH_TELEMETRY_S
+        return fresh and gpi is not None and gpi.relative_alt_m > AIRBORNE_ALT_M
 
     def link_up(self, now_s: float) -> bool:
         beat = self.own.heartbeat_s
@@ -66,6 +104,9 @@ class AutopilotWatch:
     def _on_heartbeat(self, now_s: float, msg: m.Message) -> None:
         assert isinstance(msg, m.Heartbeat)
         previous = self.own.heartbeat
+        if previous is not None and previous.armed and not msg.armed and self._flying(now_s):
+            self.counters.implausible_disarm += 1
+            return
         self.own.heartbeat, self.own.heartbeat_s = msg, now_s
         if previous is None:
             self.log.event(now_s, "autopilot_seen", f"mode {mode_name(msg.custom_mode)}")
