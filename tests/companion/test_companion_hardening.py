@@ -4,6 +4,10 @@ ids must neither crash the companion nor end its mission, nor stamp its log with
 from __future__ import annotations
 
 import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
 
 from ridsafe.common import codec, topics
 from ridsafe.common import messages as m
@@ -12,7 +16,8 @@ from ridsafe.common.dialect import ridsafe_v20 as mav
 from ridsafe.common.shell import Endpoint
 from ridsafe.companion.companion import AUTOPILOT
 from ridsafe.companion.mission import Phase
-from tests.companion.test_companion_core import Flight, make_scenario
+from ridsafe.companion.stale_regions import held_regions
+from tests.companion.test_companion_core import HOVERING, Flight, _region, make_scenario
 
 AUTOPILOT_IDS = (1, 1)  # system 1 (the vehicle), component 1 (the autopilot)
 
@@ -115,3 +120,67 @@ def test_counters_record_carries_the_edge_rejections() -> None:
     flight.companions[1].finish(flight.t_s)
     records = [r for _, r in flight.sinks[1].on(topics.APP_COUNTERS)]
     assert records[-1]["counters"]["companion.invalid.SYSTEM_TIME.time_unix_s"] == 1  # type: ignore[index]
+
+
+# --- a lost GCS: the last region is held, inflated (stale_regions) -----------------------------
+
+
+def _held_flight(hold_s: float) -> Flight:
+    config = replace(HOVERING, stale_region_hold_s=hold_s, stale_region_growth_m2_s=25.0)
+    flight = Flight(make_scenario(1), config=config)
+    flight.run_until(lambda: flight.companions[1].phase is Phase.CRUISE, max_s=20.0)
+    return flight
+
+
+def test_a_region_the_gcs_stops_refreshing_is_held_grown_by_the_documented_rule() -> None:
+    flight = _held_flight(hold_s=30.0)
+    t0 = flight.companions[1].sim_time(flight.t_s)
+    sent = _region("RSAF800000666", (50.0, 40.0, 60.0), t0)  # valid for 2 s, then silence
+    flight.send_from_gcs(1, [sent])
+    flight.run(6.0)
+    last = flight.planners[1].inputs[-1]
+    (region,) = last.regions
+    dt_s = last.t_s - t0
+    assert dt_s > 5.0
+    grow = 25.0 * dt_s
+    expected_cov = ((100.0 + grow, 5.0, 0.0), (5.0, 80.0 + grow, 0.0), (0.0, 0.0, 50.0 + grow))
+    np.testing.assert_allclose(region.cov_ned_m2, expected_cov, rtol=1e-12)
+    home = flight.sim.homes[0]
+    center0 = home.enu_to_local_ned(np.array([50.0, 40.0, 60.0]))
+    np.testing.assert_allclose(
+        region.center_ned_m, center0 + np.array(sent.v_ned_m_s) * dt_s, atol=0.01
+    )
+    assert region.chi2_threshold == pytest.approx(sent.chi2_threshold, rel=1e-6)  # float32
+    companion = flight.companions[1]
+    store = companion.regions
+    now_s = sent.valid_until_s + 29.0
+    assert held_regions(store.expired_last, now_s, 30.0, 25.0, companion.own.to_local)
+    now_s = sent.valid_until_s + 31.0  # past the hold: gone
+    assert held_regions(store.expired_last, now_s, 30.0, 25.0, companion.own.to_local) == ()
+    assert store.expired_last == {}
+
+
+def test_a_deleted_region_is_not_held_and_a_fresh_one_replaces_the_held_one() -> None:
+    flight = _held_flight(hold_s=30.0)
+    t0 = flight.companions[1].sim_time(flight.t_s)
+    flight.send_from_gcs(1, [_region("RSAF800000666", (50.0, 40.0, 60.0), t0)])
+    flight.run(4.0)
+    t1 = flight.companions[1].sim_time(flight.t_s)
+    fresh = _region("RSAF800000666", (80.0, 40.0, 60.0), t1)
+    flight.send_from_gcs(1, [fresh])
+    flight.run(0.6)
+    (region,) = flight.planners[1].inputs[-1].regions
+    assert region.cov_ned_m2[0][0] == 100.0  # the fresh one, not grown
+    t2 = flight.companions[1].sim_time(flight.t_s)
+    deleted = replace(fresh, t_s=t2, valid_until_s=t2, flags=int(m.RegionFlags.DELETED))
+    flight.send_from_gcs(1, [deleted])
+    flight.run(4.0)
+    assert flight.planners[1].inputs[-1].regions == ()
+
+
+def test_by_default_an_expired_region_is_dropped_as_before() -> None:
+    flight = _held_flight(hold_s=0.0)
+    t0 = flight.companions[1].sim_time(flight.t_s)
+    flight.send_from_gcs(1, [_region("RSAF800000666", (50.0, 40.0, 60.0), t0)])
+    flight.run(3.0)
+    assert flight.planners[1].inputs[-1].regions == ()
