@@ -271,6 +271,12 @@ class AppShell:
 
     # -- outbound ---------------------------------------------------------------------------
 
+    def advance_signing_clocks(self, now_s: float) -> None:
+        """Every signed link's outgoing stamps follow the core's time (``now_s`` since the
+        signing clock's start): see ``MavlinkLink.advance_signing_clock``."""
+        for endpoint in self.endpoints.values():
+            endpoint.link.advance_signing_clock(now_s)
+
     def send(self, name: str, message: m.Message, component: int | None = None) -> None:
         self.endpoints[name].send(message, component)
 

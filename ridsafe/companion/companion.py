@@ -130,6 +130,7 @@ class Companion:
         if not math.isfinite(now_s) or now_s < self.t_s:
             raise ClockError(f"companion time must not go backwards: {self.t_s} -> {now_s}")
         self.t_s = now_s
+        self.shell.advance_signing_clocks(now_s)
         self.shell.dispatch(inbound, lambda ep, received: self._dispatch(now_s, ep.name, received))
         self.autopilot.watch(now_s)
         self.gcs.watch(now_s)

@@ -238,6 +238,7 @@ class Gcs:
 
     def handle(self, now_s: float, inbound: Iterable[tuple[str, bytes]]) -> Datagrams:
         """Consume inbound datagrams, run what is due at ``now_s``, return outbound datagrams."""
+        self.shell.advance_signing_clocks(now_s)
         self.shell.dispatch(
             inbound, lambda endpoint, received: self._accept(now_s, endpoint.name, received)
         )

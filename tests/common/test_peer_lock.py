@@ -140,3 +140,41 @@ def test_a_restarted_companion_from_a_new_port_takes_over_after_the_silence() ->
         assert lock.switches == 1 and sim.telemetry > 0
     finally:
         sim.close()
+
+
+class _Echo:
+    """A core that records what it is handed on its one endpoint."""
+
+    def __init__(self) -> None:
+        self.got: list[bytes] = []
+
+    def handle(self, now_s: float, inbound: list[tuple[str, bytes]]) -> list[tuple[str, bytes]]:
+        self.got.extend(data for _, data in inbound)
+        return []
+
+
+@pytest.mark.udp
+def test_a_udpout_endpoint_takes_datagrams_from_its_remote_only() -> None:
+    remote = UdpEndpoint()
+    out = UdpEndpoint(remote=remote.local_address)
+    stranger = UdpEndpoint(remote=out.local_address)
+    out.send(b"hello")  # so the remote knows where out is
+    remote.recv_all()
+    clock_s = [0.0]
+
+    def tick(now_s: float) -> None:
+        remote.send(b"from the remote", out.local_address)
+        stranger.send(b"from a stranger")
+        time.sleep(0.002)
+        clock_s[0] = (round(now_s / TICK_S) + 1) * TICK_S + 1e-6
+
+    core = _Echo()
+    runner = UdpRunner(core, {"autopilot": out}, MonotonicClock(1.0, lambda: clock_s[0]), TICK_S)
+    try:
+        runner.run(1.0, tick)
+    finally:
+        runner.close()
+        remote.close()
+        stranger.close()
+    assert core.got and set(core.got) == {b"from the remote"}
+    assert runner.stats.foreign_dropped >= 15

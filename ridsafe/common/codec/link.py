@@ -136,6 +136,13 @@ class MavlinkLink:
         packet += x25_crc(packet[1:] + crc_extra).to_bytes(2, "little")
         return packet if self._signing is None else self._signing.sign(packet)
 
+    def advance_signing_clock(self, elapsed_s: float) -> None:
+        """With signing: outgoing stamps at least ``initial_timestamp`` plus ``elapsed_s``
+        (the core's time since its signing clock started) in 10 us units."""
+        if self._signing is not None and elapsed_s > 0.0:
+            start = self._signing.config.initial_timestamp
+            self._signing.advance_to(start + int(elapsed_s * 100_000))
+
     def pack_all(self, messages: list[m.Message]) -> bytes:
         return b"".join(self.pack(message) for message in messages)
 

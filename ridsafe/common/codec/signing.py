@@ -91,6 +91,12 @@ class SigningState:
         self.timestamp += 1
         return packet + hashlib.sha256(self.config.key + packet).digest()[:6]
 
+    def advance_to(self, timestamp: int) -> None:
+        """Move the outgoing clock up to ``timestamp`` (never back). Stamps then follow
+        time, as the signing specification asks, not only the packet count: a receiver
+        that restarts with a clock-based start still finds the stream fresh."""
+        self.timestamp = max(self.timestamp, timestamp)
+
     def genuine_and_fresh(self, packet: bytes, system: int, component: int) -> bool:
         """Would ``check`` accept ``packet`` now? Changes nothing (for vetting a sender
         before its address is trusted)."""
