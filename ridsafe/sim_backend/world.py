@@ -34,7 +34,13 @@ from ridsafe.common import messages as m
 from ridsafe.common.errors import ClockError
 from ridsafe.common.logsink import LogSink, NullSink
 from ridsafe.common.scenario import Scenario
-from ridsafe.common.shell import AppShell, Datagrams, Endpoint, link_counter_values
+from ridsafe.common.shell import (
+    AppShell,
+    Datagrams,
+    Endpoint,
+    from_system,
+    link_counter_values,
+)
 from ridsafe.sim_backend import telemetry
 from ridsafe.sim_backend.autopilot import (
     Autopilot,
@@ -218,10 +224,13 @@ class SimBackend:
         """Vehicle ``sysid``'s endpoint of ``kind``: the autopilot (component 1) parses and
         sends; on the companion link its RID transponder (236) sends too."""
         senders = {}
-        if kind is EndpointKind.COMPANION:
+        accept = None
+        if kind is EndpointKind.COMPANION:  # only the vehicle's own companion (its system id)
             senders[TRANSPONDER_COMPONENT] = codec.MavlinkLink(sysid, TRANSPONDER_COMPONENT)
+            accept = from_system(sysid)
         link = codec.MavlinkLink(sysid, AUTOPILOT_COMPONENT)
-        endpoint = self.shell.add(Endpoint(endpoint_name(sysid, kind), link, senders=senders))
+        name = endpoint_name(sysid, kind)
+        endpoint = self.shell.add(Endpoint(name, link, accept=accept, senders=senders))
         schedule = TelemetrySchedule(self.config.telemetry_hz.by_id())
         return _Port(endpoint, sysid, kind, schedule)
 

@@ -119,7 +119,7 @@ def test_counters_record_carries_the_edge_rejections() -> None:
     flight.run(1.0)
     flight.companions[1].finish(flight.t_s)
     records = [r for _, r in flight.sinks[1].on(topics.APP_COUNTERS)]
-    assert records[-1]["counters"]["companion.invalid.SYSTEM_TIME.time_unix_s"] == 1  # type: ignore[index]
+    assert records[-1]["counters"]["companion.invalid.SYSTEM_TIME.time_unix_s"] == 1
 
 
 # --- a lost GCS: the last region is held, inflated (stale_regions) -----------------------------

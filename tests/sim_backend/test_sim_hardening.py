@@ -85,4 +85,4 @@ def test_the_sim_logs_its_counters_at_the_end() -> None:
     backend.finish(pair.t_s)
     ((_, record),) = sink.on(topics.APP_COUNTERS)
     assert record["app"] == "sim"
-    assert record["counters"]["invalid.COMMAND_LONG.param1"] == 1  # type: ignore[index]
+    assert record["counters"]["invalid.COMMAND_LONG.param1"] == 1

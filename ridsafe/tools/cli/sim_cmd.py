@@ -80,8 +80,10 @@ def run(args: argparse.Namespace) -> int:
     finally:
         restore()
         runner.close()
+        backend.finish(backend.t_s)
         process.close_sink(sink)
-    print(f"done at t = {backend.t_s:.1f} s; {runner.stats}")
+    refused = sum(lock.foreign for lock in runner.locks.values())
+    print(f"done at t = {backend.t_s:.1f} s; {runner.stats}; not from the peer: {refused}")
     return 0
 
 

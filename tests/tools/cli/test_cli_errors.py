@@ -18,6 +18,8 @@ from ridsafe.tools.cli import entry_point as cli_main
         (["sim", "--speed", "0"], "argument --speed: must be > 0, got 0"),
         (["sim", "--duration", "-1"], "argument --duration: must be > 0, got -1"),
         (["sim", "--vehicles", "-2"], "argument --vehicles: must be >= 1, got -2"),
+        (["gcs", "--speed", "0"], "argument --speed: must be > 0, got 0"),
+        (["companion", "--duration", "0"], "argument --duration: must be > 0, got 0"),
         (["gcs", "--t0-unix", "inf"], "argument --t0-unix: must be finite, got inf"),
         (["sweep", "--workers", "0"], "argument --workers: must be >= 1, got 0"),
         (["demo", "--speed", "-4"], "argument --speed: must be > 0, got -4"),
