@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from ridsafe.common import codec
 from ridsafe.common import messages as m
 from ridsafe.common.messages import CopterMode, MavCmd, MavResult
 from ridsafe.common.messages import PositionTargetMask as Mask
@@ -219,6 +220,7 @@ def test_unknown_command_is_unsupported(pair: SimPair) -> None:
 
 def test_commands_to_the_transponder_component_are_unsupported(pair: SimPair) -> None:
     companion = SimPair(pair.backend, kind=EndpointKind.COMPANION)
+    companion.station = codec.MavlinkLink(1, 191)  # the companion port takes its own system
     companion.t_s = pair.t_s
     ack = companion.command(MavCmd.COMPONENT_ARM_DISARM, 1, target_component=236)
     assert ack.result == UNSUPPORTED
