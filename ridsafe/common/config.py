@@ -84,8 +84,15 @@ _Converter = Callable[[Any, object, str, str], object]
 _MERGE_TAG = "tag:yaml.org,2002:merge"
 
 
-class _StrictLoader(yaml.SafeLoader):
-    """PyYAML's safe loader, rejecting duplicate keys and reading ``1e-3`` as a float."""
+#: libyaml's parser when PyYAML was built with it (about 10x faster), else the pure-Python one.
+_SafeLoaderBase: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+#: Larger configuration texts are refused before parsing (the project's are a few kB).
+MAX_CONFIG_BYTES = 1 << 20
+
+
+class _StrictLoader(_SafeLoaderBase):  # type: ignore[valid-type,misc]
+    """PyYAML's safe loader (libyaml's parser where available), rejecting duplicate keys and
+    reading ``1e-3`` as a float."""
 
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
         seen: set[object] = set()
@@ -98,7 +105,8 @@ class _StrictLoader(yaml.SafeLoader):
                     None, None, f"duplicate key {key!r}", key_node.start_mark
                 )
             seen.add(key)
-        return super().construct_mapping(node, deep=deep)
+        mapping: dict[Any, Any] = super().construct_mapping(node, deep=deep)
+        return mapping
 
 
 # YAML 1.2 floats without a decimal point, e.g. 1e-3, -2E+6 (YAML 1.1 reads them as strings).
@@ -110,7 +118,13 @@ _StrictLoader.add_implicit_resolver(
 
 
 def parse_yaml(text: str, source: str) -> object:
-    """Parse one YAML document with the strict loader; syntax errors name ``source`` and line."""
+    """Parse one YAML document with the strict loader; syntax errors name ``source`` and line.
+    A text over ``MAX_CONFIG_BYTES`` is refused unparsed."""
+    size = len(text.encode("utf-8"))
+    if size > MAX_CONFIG_BYTES:
+        raise ConfigError(
+            source, "", f"configuration is {size} bytes, more than the {MAX_CONFIG_BYTES} allowed"
+        )
     try:
         return yaml.load(text, Loader=_StrictLoader)
     except yaml.MarkedYAMLError as err:
@@ -130,6 +144,13 @@ def load_config(path: str | Path, cls: type[T]) -> T:
     """Read the YAML file at ``path`` and build a ``cls`` from it (see the module docstring)."""
     source = str(path)
     try:
+        size = Path(path).stat().st_size
+        if size > MAX_CONFIG_BYTES:
+            raise ConfigError(
+                source,
+                "",
+                f"configuration file is {size} bytes, more than the {MAX_CONFIG_BYTES} allowed",
+            )
         text = Path(path).read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as err:
         raise ConfigError(source, "", f"cannot read configuration file: {err}") from err

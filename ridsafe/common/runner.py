@@ -6,10 +6,15 @@ name; every ``tick_s`` of sim time (``tick_s / speed`` of wall time) it drains e
 calls the core once with everything that arrived, and sends what the core returns. Sockets
 live here and nowhere else.
 
-An endpoint with a fixed remote (``udpout``) always sends there; one without (``udpin``)
-replies to the last peer it heard from, and until it has heard from one, what the core
-sends there is counted in ``unsent_no_peer`` and dropped, as a serial port with nothing
-attached would drop it.
+An endpoint with a fixed remote (``udpout``) always sends there, and takes datagrams from
+there only (others are dropped, counted in ``foreign_dropped``: a local process cannot talk
+to a companion through its ephemeral port). One without (``udpin``) replies to its peer:
+with a core that can vet senders (``valid_senders(name, data)``, as ``AppShell`` does) the
+peer is earned by a genuine frame and locked (``common.peer_lock``: datagrams from other
+addresses are dropped and counted, and the peer switches only after ``switch_after_s`` of
+silence); with a core that cannot, the last address heard (pymavlink's rule). Until a peer
+is known, what the core sends there is counted in ``unsent_no_peer`` and dropped, as a
+serial port with nothing attached would drop it.
 
 A multi-peer endpoint (named in ``multi_peer``) is one socket that many peers talk to, like
 a ground station's 14550: what arrives from ``host:port`` is handed to the core as
@@ -28,6 +33,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from ridsafe.common.errors import UdpError
+from ridsafe.common.peer_lock import DEFAULT_SWITCH_AFTER_S, PeerLock
 from ridsafe.common.shell import Datagrams, SansIoCore
 from ridsafe.common.udp import Address, UdpEndpoint
 
@@ -55,6 +61,7 @@ class RunnerStats:
     unknown_endpoint_out: int = 0
     late_ticks: int = 0
     unsent_bad_peer: int = 0
+    foreign_dropped: int = 0  # datagrams from an address that is not the endpoint's peer
 
 
 class UdpRunner:
@@ -67,6 +74,7 @@ class UdpRunner:
         clock: RunnerClock,
         tick_s: float = 0.01,
         multi_peer: Collection[str] = (),
+        switch_after_s: float = DEFAULT_SWITCH_AFTER_S,
     ) -> None:
         if tick_s <= 0:
             raise ValueError(f"tick_s must be > 0, got {tick_s}")
@@ -85,6 +93,14 @@ class UdpRunner:
         self._selector = selectors.DefaultSelector()
         for name, endpoint in self.endpoints.items():
             self._selector.register(endpoint.fileno(), selectors.EVENT_READ, name)
+        vet = getattr(core, "valid_senders", None)
+        self._vet: Callable[[str, bytes], set[tuple[int, int]]] | None = vet
+        self.locks: dict[str, PeerLock] = {}
+        if vet is not None:
+            for name, endpoint in self.endpoints.items():
+                if endpoint.remote is None and name not in self.multi_peer:
+                    endpoint.learns_peer = False
+                    self.locks[name] = PeerLock(name, switch_after_s)
 
     def stop(self) -> None:
         self._stopping = True
@@ -119,12 +135,30 @@ class UdpRunner:
         for name, endpoint in self.endpoints.items():
             multi = name in self.multi_peer
             for data, addr in endpoint.recv_all():
+                if not self._admit(now_s, name, endpoint, data, addr):
+                    self.stats.foreign_dropped += 1
+                    continue
                 inbound.append((self._peer_name(name, addr) if multi else name, data))
         self.stats.datagrams_in += len(inbound)
         outbound = self.core.handle(now_s, inbound)
         for name, data in outbound:
             self._send(name, data)
         self.stats.ticks += 1
+
+    def _admit(
+        self, now_s: float, name: str, endpoint: UdpEndpoint, data: bytes, addr: Address
+    ) -> bool:
+        """Whether a datagram from ``addr`` goes to the core (see the module docstring)."""
+        if endpoint.remote is not None:
+            return addr == endpoint.remote
+        lock = self.locks.get(name)
+        if lock is None or self._vet is None:
+            return True
+        senders = self._vet(name, data)
+        admitted = lock.admit(now_s, addr, senders)
+        if admitted and lock.address is not None and endpoint.peer != lock.address:
+            endpoint.set_peer(lock.address)
+        return admitted
 
     def _peer_name(self, name: str, addr: Address) -> str:
         peer = self._peer_names.get(addr)

@@ -183,6 +183,8 @@ class Scenario:
     start_unix_s: float = 1_767_268_800.0  # 2026-01-01T12:00:00Z
 
     def __post_init__(self) -> None:
+        if not self.aircraft:
+            raise FieldValueError("aircraft", "expected at least one aircraft, got none")
         serials = [a.serial for a in self.aircraft]
         if self.spoofer is not None:
             serials.append(self.spoofer.serial)

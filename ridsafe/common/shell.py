@@ -11,7 +11,11 @@ The shell owns, per endpoint:
   counted by reason (``ShellCounters.refused``) before the core sees it;
 - the outbox: packets queued by ``send`` / ``broadcast``, joined into datagrams of at most
   ``MAX_DATAGRAM_BYTES`` (a packet is never split) by ``flush``;
-- counters: datagrams in and out, datagrams for endpoints the core does not have.
+- counters: datagrams in and out, datagrams for endpoints the core does not have, messages
+  whose handling raised (``handler_errors``: ``dispatch`` logs the message and carries on, so
+  no exception from bytes escapes a core's ``handle``), messages that could not be encoded
+  (``unencodable_out``: logged and dropped), and every link's drops, with the decoded
+  messages refused at the edge by ``"invalid.<MESSAGE>.<field>"`` (``codec.inbound``).
 
 Endpoints are added by the core (fixed ones at construction; on demand through
 ``open_endpoint``, as the GCS opens one per companion peer) and removed when it forgets a
@@ -30,12 +34,14 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import struct
 from collections.abc import Callable, Collection, Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Protocol
 
 from ridsafe.common import messages as m
 from ridsafe.common.codec import LinkCounters, MavlinkLink, Received, encode_payload
+from ridsafe.common.errors import WireError
 
 logger = logging.getLogger(__name__)
 
@@ -46,6 +52,8 @@ Datagrams = list[tuple[str, bytes]]
 #: Why a sender may not speak on an endpoint (None: it may).
 SenderCheck = Callable[[Received], "str | None"]
 _LINK_FIELDS = tuple(f.name for f in dataclasses.fields(LinkCounters) if f.type == "int")
+#: What packing a message with a value its field cannot hold raises.
+_ENCODE_ERRORS = (WireError, struct.error, ValueError, OverflowError, TypeError)
 
 
 class SansIoCore(Protocol):
@@ -103,12 +111,24 @@ class Endpoint:
     #: Other components of this system that send on the same channel, by component id.
     senders: dict[int, MavlinkLink] = field(default_factory=dict)
     outbox: list[bytes] = field(default_factory=list)
+    unencodable: int = 0  # messages whose values did not fit their fields (not sent)
 
     def send(self, message: m.Message, component: int | None = None) -> None:
-        """Queue ``message`` from the core's identity, or from ``component``'s."""
+        """Queue ``message`` from the core's identity, or from ``component``'s. A message
+        whose values do not fit its MAVLink fields is logged, counted and not sent: a value
+        that crept in from outside must not take the core down."""
         link = self.link if component is None else self.senders[component]
-        self.outbox.append(link.pack(message))
+        try:
+            self.outbox.append(link.pack(message))
+        except _ENCODE_ERRORS as exc:
+            self.unencodable += 1
+            count = self.unencodable
+            level = logging.WARNING if count == 1 or count % 1000 == 0 else logging.DEBUG
+            logger.log(level, "%s: %r not sent (%d so far): %s", self.name, message, count, exc)
 
+
+#: Stands in for a message when a sender check is asked about ids alone.
+_PROBE = m.Heartbeat(0, 0, 0, 0, 0)
 
 EndpointOpener = Callable[[str], "Endpoint | str | None"]
 
@@ -120,6 +140,7 @@ class ShellCounters:
     datagrams_in: int = 0
     datagrams_out: int = 0
     unknown_endpoint: int = 0
+    handler_errors: int = 0
     refused: dict[str, int] = field(default_factory=dict)  # by the sender check's reason
 
     def as_dict(self) -> dict[str, int]:
@@ -127,6 +148,7 @@ class ShellCounters:
             "datagrams_in": self.datagrams_in,
             "datagrams_out": self.datagrams_out,
             "unknown_endpoint": self.unknown_endpoint,
+            "handler_errors": self.handler_errors,
         }
         out.update(self.refused)
         return out
@@ -145,6 +167,7 @@ class AppShell:
         self.counters = ShellCounters()
         self._open_endpoint = open_endpoint
         self._retired = LinkCounters()
+        self._retired_unencodable = 0
 
     def add(self, endpoint: Endpoint) -> Endpoint:
         if endpoint.name in self.endpoints:
@@ -157,6 +180,7 @@ class AppShell:
         endpoint = self.endpoints.pop(name, None)
         if endpoint is not None:
             _add_link_counters(self._retired, endpoint.link.counters)
+            self._retired_unencodable += endpoint.unencodable
         return endpoint
 
     # -- inbound ----------------------------------------------------------------------------
@@ -174,6 +198,47 @@ class AppShell:
                     yield endpoint, received
                 else:
                     self._refuse(endpoint, received, reason)
+
+    def valid_senders(self, name: str, data: bytes) -> set[tuple[int, int]]:
+        """(system, component) pairs that sent a genuine frame in ``data`` (``MavlinkLink.
+        valid_senders``) and that ``name``'s sender check admits; empty for an endpoint the
+        core does not have yet. Changes nothing: the runner asks this before it lets the
+        datagram's source address become the endpoint's peer."""
+        endpoint = self.endpoints.get(name)
+        if endpoint is None:
+            return set()
+        senders = set(endpoint.link.valid_senders(data))
+        if endpoint.accept is None:
+            return senders
+        return {s for s in senders if endpoint.accept(Received(s[0], s[1], _PROBE, True)) is None}
+
+    def dispatch(
+        self,
+        inbound: Iterable[tuple[str, bytes]],
+        handler: Callable[[Endpoint, Received], object],
+    ) -> None:
+        """``handler(endpoint, received)`` for every accepted message of ``inbound``. An
+        exception in the handler is logged with the message, counted in
+        ``handler_errors``, and the next message is handled: one bad message never stops a
+        core."""
+        for endpoint, received in self.receive(inbound):
+            try:
+                handler(endpoint, received)
+            except Exception:  # a core bug on one message must not end the process
+                self.counters.handler_errors += 1
+                count = self.counters.handler_errors
+                level = logging.ERROR if count == 1 or count % 1000 == 0 else logging.DEBUG
+                logger.log(
+                    level,
+                    "%s: handling %r from %d/%d on %s failed (%d so far)",
+                    self.app,
+                    received.message,
+                    received.src_system,
+                    received.src_component,
+                    endpoint.name,
+                    count,
+                    exc_info=True,
+                )
 
     def _open(self, name: str) -> Endpoint | None:
         opened = None if self._open_endpoint is None else self._open_endpoint(name)
@@ -206,6 +271,12 @@ class AppShell:
 
     # -- outbound ---------------------------------------------------------------------------
 
+    def advance_signing_clocks(self, now_s: float) -> None:
+        """Every signed link's outgoing stamps follow the core's time (``now_s`` since the
+        signing clock's start): see ``MavlinkLink.advance_signing_clock``."""
+        for endpoint in self.endpoints.values():
+            endpoint.link.advance_signing_clock(now_s)
+
     def send(self, name: str, message: m.Message, component: int | None = None) -> None:
         self.endpoints[name].send(message, component)
 
@@ -237,10 +308,21 @@ class AppShell:
 
     def link_totals(self) -> LinkCounters:
         """Every link's counters summed, endpoints removed since included."""
-        total = dataclasses.replace(self._retired)
+        retired = self._retired
+        total = dataclasses.replace(retired, invalid_fields=dict(retired.invalid_fields))
         for endpoint in self.endpoints.values():
             _add_link_counters(total, endpoint.link.counters)
         return total
+
+    def edge_counters(self) -> dict[str, int]:
+        """What the edge refused, for ``/app/counters``: ``"invalid.<MESSAGE>.<field>"`` per
+        rejected field (every link, removed ones included) and ``"unencodable_out"``."""
+        total = self.link_totals()
+        out = {f"invalid.{key}": count for key, count in sorted(total.invalid_fields.items())}
+        out["unencodable_out"] = self._retired_unencodable + sum(
+            endpoint.unencodable for endpoint in self.endpoints.values()
+        )
+        return out
 
 
 def link_counter_values(counters: LinkCounters) -> dict[str, int]:
@@ -251,3 +333,5 @@ def link_counter_values(counters: LinkCounters) -> dict[str, int]:
 def _add_link_counters(total: LinkCounters, more: LinkCounters) -> None:
     for name in _LINK_FIELDS:
         setattr(total, name, getattr(total, name) + getattr(more, name))
+    for key, count in more.invalid_fields.items():
+        total.invalid_fields[key] = total.invalid_fields.get(key, 0) + count

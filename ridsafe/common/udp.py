@@ -6,7 +6,9 @@ Cores never touch sockets: a runner owns :class:`UdpEndpoint` objects, drains th
 Addressing follows pymavlink's ``mavudp``:
 
 - ``udpin:HOST:PORT`` binds HOST:PORT and replies to whoever spoke last (it cannot send until a
-  peer has spoken). ``udp:HOST:PORT`` is pymavlink's legacy spelling of the same.
+  peer has spoken). ``udp:HOST:PORT`` is pymavlink's legacy spelling of the same. The
+  runner (``common.runner``) replaces "whoever spoke last" by a peer earned with a genuine
+  frame and locked (``common.peer_lock``) when its core can vet senders.
 - ``udpout:HOST:PORT`` binds an ephemeral local port and always sends to HOST:PORT.
 
 Everything binds 127.0.0.1 by default. Listening on all interfaces needs an explicit
@@ -162,6 +164,9 @@ class UdpEndpoint:
             logger.info("UDP endpoint listening on all interfaces (port %d)", bind_port)
         self._remote = _resolve(remote) if remote is not None else None
         self._peer: Address | None = None
+        #: ``recv_all`` takes every sender as the peer (pymavlink's rule); a runner that vets
+        #: senders itself (``common.peer_lock``) turns this off and calls ``set_peer``.
+        self.learns_peer = True
         self._errnos_logged: set[int] = set()
         self.stats = UdpStats()
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -221,6 +226,10 @@ class UdpEndpoint:
         """The sender of the most recent datagram received, or None before the first."""
         return self._peer
 
+    def set_peer(self, address: Address) -> None:
+        """Make ``address`` the peer that ``send`` without an address goes to."""
+        self._peer = address
+
     @property
     def destination(self) -> Address | None:
         """Where ``send(data)`` without an address goes: ``remote``, else ``peer``."""
@@ -258,7 +267,8 @@ class UdpEndpoint:
         """Drain up to ``max_datagrams`` waiting datagrams without blocking, oldest first.
 
         Returns ``[(data, sender), ...]``, empty if nothing is waiting. Remembers the last
-        sender as :attr:`peer`. Transient errors are counted and skipped.
+        sender as :attr:`peer` unless :attr:`learns_peer` is off. Transient errors are
+        counted and skipped.
         """
         self._check_open("recv_all")
         received: list[tuple[bytes, Address]] = []
@@ -275,7 +285,8 @@ class UdpEndpoint:
                 continue
             address: Address = (str(sender[0]), int(sender[1]))
             received.append((data, address))
-            self._peer = address
+            if self.learns_peer:
+                self._peer = address
         self.stats.datagrams_received += len(received)
         self.stats.bytes_received += sum(len(data) for data, _ in received)
         return received

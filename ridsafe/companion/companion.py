@@ -130,8 +130,8 @@ class Companion:
         if not math.isfinite(now_s) or now_s < self.t_s:
             raise ClockError(f"companion time must not go backwards: {self.t_s} -> {now_s}")
         self.t_s = now_s
-        for endpoint, received in self.shell.receive(inbound):
-            self._dispatch(now_s, endpoint.name, received)
+        self.shell.advance_signing_clocks(now_s)
+        self.shell.dispatch(inbound, lambda ep, received: self._dispatch(now_s, ep.name, received))
         self.autopilot.watch(now_s)
         self.gcs.watch(now_s)
         for command in self.mission.step(now_s):
@@ -190,6 +190,7 @@ class Companion:
                 if isinstance(value, int):
                     out[f"{name}.{f.name}"] = value
         core = self.shell.counters.as_dict()
+        core.update(self.shell.edge_counters())
         for part in (self.autopilot, self.gcs, self.mission, self.pilot):
             core.update(asdict(part.counters))
         groups: dict[str, dict[str, int]] = {

@@ -121,6 +121,11 @@ class CompanionConfig:
     prearm_give_up_s: float = 120.0
     autopilot_timeout_s: float = 3.0  # no autopilot HEARTBEAT for this long: link lost
     gcs_timeout_s: float = 5.0
+    # A region the GCS stopped refreshing (validity over, never DELETED: the GCS or its link
+    # is lost) is kept this long after its validity, inflated with time (stale_regions.py);
+    # 0 drops it when its validity ends.
+    stale_region_hold_s: float = 0.0
+    stale_region_growth_m2_s: float = 25.0  # covariance growth per second since its estimate
     # -- Remote ID --------------------------------------------------------------------------
     rid_location_period_s: float = 1.0
     rid_system_update_period_s: float = 1.0
@@ -145,6 +150,8 @@ class CompanionConfig:
                 f"expected >= arrival_radius_m ({self.arrival_radius_m}), "
                 f"got {self.approach_radius_m}",
             )
+        check_in_interval("stale_region_hold_s", self.stale_region_hold_s, -1e-12, 3600.0)
+        check_in_interval("stale_region_growth_m2_s", self.stale_region_growth_m2_s, -1e-12, 1e6)
         if not 0 <= self.command_retries <= 100:
             raise FieldValueError("command_retries", f"expected 0..100, got {self.command_retries}")
         _check_operator_id(self.operator_id)

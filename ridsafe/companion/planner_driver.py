@@ -4,8 +4,10 @@ Every ``replan_period_s`` in CRUISE and DESCEND, ``PlannerDriver`` builds the
 ``PlannerInput`` (own position and velocity in the autopilot's local NED frame, the goal, the
 neighbours from their Remote ID, the live unsafe regions), asks the planner, and sends its
 target as SET_POSITION_TARGET_LOCAL_NED (position + velocity, type_mask 3520; position only,
-3576, when the velocity is zero); in HOVER it holds the goal. A planner that raises or
-returns a non-finite target holds position instead, and the error is logged and counted.
+3576, when the velocity is zero); in HOVER it holds the goal. Regions the GCS stopped
+refreshing are held, inflated, when ``stale_region_hold_s`` > 0 (``stale_regions``). A
+planner that raises or returns a non-finite target holds position instead, and the error is
+logged and counted.
 Every decision goes to ``/companion/decisions``.
 """
 
@@ -33,6 +35,7 @@ from ridsafe.companion.planner_api import (
 )
 from ridsafe.companion.regions import RegionStore
 from ridsafe.companion.rid import Periodic
+from ridsafe.companion.stale_regions import held_regions
 from ridsafe.companion.telemetry import OwnTelemetry
 
 __all__ = ["PlannerCounters", "PlannerDriver"]
@@ -69,6 +72,8 @@ class PlannerDriver:
         self.counters = PlannerCounters()
         self.last_decision: PlannerDecision | None = None
         self._replan = Periodic(config.replan_period_s)
+        self._hold_s = config.stale_region_hold_s
+        self._growth_m2_s = config.stale_region_growth_m2_s
 
     def step(
         self,
@@ -98,7 +103,10 @@ class PlannerDriver:
             v_ned_m_s=lpn.v_ned_m_s,
             goal_ned_m=goal,
             neighbours=neighbours.neighbours(sim_now, to_local, regions.flagged),
-            regions=regions.regions(sim_now, to_local),
+            regions=regions.regions(sim_now, to_local)
+            + held_regions(
+                regions.expired_last, sim_now, self._hold_s, self._growth_m2_s, to_local
+            ),
         )
         start = time.perf_counter()
         decision = self._decide(now_s, planner_input)

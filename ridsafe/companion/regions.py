@@ -55,6 +55,9 @@ class RegionStore:
         self.counters = RegionCounters()
         self._regions: dict[str, m.UnsafeRegionMsg] = {}
         self._alerts: dict[str, m.SpoofAlert] = {}
+        #: The last region of each id whose validity ended without a newer one or a DELETED
+        #: (the GCS stopped refreshing it); ``stale_regions`` may keep it, inflated.
+        self.expired_last: dict[str, m.UnsafeRegionMsg] = {}
 
     # -- input ------------------------------------------------------------------------------
 
@@ -66,6 +69,7 @@ class RegionStore:
             self.counters.stale += 1
             return "stale"
         if msg.flags & RegionFlags.DELETED:
+            self.expired_last.pop(msg.uas_id, None)
             if self._regions.pop(msg.uas_id, None) is not None:
                 self.counters.deleted += 1
                 return "deleted"
@@ -76,6 +80,7 @@ class RegionStore:
         if kept is not None:
             self.counters.replaced += 1
         self._regions[msg.uas_id] = msg
+        self.expired_last.pop(msg.uas_id, None)
         return "replaced" if kept is not None else "new"
 
     def on_alert(self, msg: m.SpoofAlert) -> bool:
@@ -106,7 +111,7 @@ class RegionStore:
         """Drop regions whose validity ended before ``now_s``; their ids."""
         gone = [uas for uas, r in self._regions.items() if r.valid_until_s < now_s]
         for uas in gone:
-            del self._regions[uas]
+            self.expired_last[uas] = self._regions.pop(uas)
             self.counters.expired += 1
             logger.info("unsafe region of %s expired", uas)
         return gone

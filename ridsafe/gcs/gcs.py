@@ -3,8 +3,12 @@ r"""The GCS core, sans I/O: ``handle(now_s, inbound) -> outbound``.
 One UDP port that every companion talks to, like a real ground station on 14550. Inbound
 endpoint names are ``"companions@<peer>"``, ``<peer>`` an opaque sender key (``host:port``
 over UDP, ``c3`` in an in-process router). Per peer the GCS keeps one shell endpoint (its link:
-the parser state, and with signing the replay window), learns the MAVLink system ids
-that speak through it, and treats it as live while it is heard within ``peer_timeout_s``.
+the parser state), learns the MAVLink system ids that speak through it, and treats it as live
+while it is heard within ``peer_timeout_s``. With signing, every peer link checks against one
+anti-replay window (``self.replay``, per signing stream, never per address), so packets
+captured and re-sent from a new socket are refused. A system id moves to a new peer only once
+its old peer has been silent for ``peer_timeout_s`` (``sysid_moves_refused`` counts the
+rest): while a companion speaks, nothing another address sends moves its regions away.
 
 Each call:
 
@@ -43,7 +47,7 @@ import numpy as np
 
 from ridsafe.common import frames, topics
 from ridsafe.common import messages as m
-from ridsafe.common.codec import LinkCounters, MavlinkLink, Received, SigningConfig
+from ridsafe.common.codec import LinkCounters, MavlinkLink, Received, ReplayWindow, SigningConfig
 from ridsafe.common.frames import GeodeticOrigin
 from ridsafe.common.logsink import LogSink
 from ridsafe.common.shell import (
@@ -138,6 +142,7 @@ class GcsCounters:
     senders and datagrams; the links and ingest count their own)."""
 
     peers_evicted: int = 0
+    sysid_moves_refused: int = 0  # a system heard through a new address while its peer lives
     peers_timed_out: int = 0
     ignored_messages: int = 0
     cycles: int = 0
@@ -181,6 +186,9 @@ class Gcs:
         self.pipeline = pipeline
         self.sink = sink
         self.signing = signing
+        #: One anti-replay window for every peer link: signing streams are (link id, system,
+        #: component), not addresses, so a stream re-sent from a new socket is still old.
+        self.replay = ReplayWindow()
         self.ingest = Ingest(config, origin)
         self.counters = GcsCounters()
         self.shell = AppShell("gcs", open_endpoint=self._open_peer)
@@ -220,6 +228,7 @@ class Gcs:
         out = {f"link_{name}": value for name, value in links.items()}
         out.update(self.ingest.counters.as_dict())
         out.update(self.shell.counters.as_dict())
+        out.update(self.shell.edge_counters())
         out.update(dataclasses.asdict(self.counters))
         out["peers_known"] = len(self._peers)
         out["peers_live"] = len(self.live_peers)
@@ -229,8 +238,10 @@ class Gcs:
 
     def handle(self, now_s: float, inbound: Iterable[tuple[str, bytes]]) -> Datagrams:
         """Consume inbound datagrams, run what is due at ``now_s``, return outbound datagrams."""
-        for endpoint, received in self.shell.receive(inbound):
-            self._accept(now_s, self._peers[endpoint.name], received)
+        self.shell.advance_signing_clocks(now_s)
+        self.shell.dispatch(
+            inbound, lambda endpoint, received: self._accept(now_s, endpoint.name, received)
+        )
         self._expire_peers(now_s)
         sim_now = self._time.sim_s(now_s)
         if sim_now is not None:
@@ -260,7 +271,7 @@ class Gcs:
             return None
         if len(self._peers) >= self.config.max_peers and not self._evict_dead_peer():
             return "peer_limit"
-        link = MavlinkLink(GCS_SYSTEM_ID, GCS_COMPONENT_ID, self.signing)
+        link = MavlinkLink(GCS_SYSTEM_ID, GCS_COMPONENT_ID, self.signing, self.replay)
         endpoint = Endpoint(name, link, accept=not_from_systems((0, GCS_SYSTEM_ID)))
         self._peers[name] = _Peer(key, endpoint)
         return endpoint
@@ -278,7 +289,8 @@ class Gcs:
         self.counters.peers_evicted += 1
         return True
 
-    def _accept(self, now_s: float, peer: _Peer, received: Received) -> None:
+    def _accept(self, now_s: float, endpoint: str, received: Received) -> None:
+        peer = self._peers[endpoint]
         sysid = received.src_system  # not 0 nor ours: the endpoint's sender check
         self._heard(now_s, peer, sysid)
         message = received.message
@@ -295,15 +307,22 @@ class Gcs:
         previous = self._sysid_peer.get(sysid)
         if previous == peer.key:
             return
+        old = self._peers.get(peer_endpoint(previous)) if previous is not None else None
+        if old is not None and self._still_speaks(old, now_s):
+            self.counters.sysid_moves_refused += 1  # stays with the peer that still speaks
+            return
         self._sysid_peer[sysid] = peer.key
         peer.sysids.add(sysid)
-        old = self._peers.get(peer_endpoint(previous)) if previous is not None else None
         if old is not None:
             old.sysids.discard(sysid)
             logger.info("system %d moved from peer %s to %s", sysid, old.key, peer.key)
             if not old.sysids and old.live:
                 old.live = False
                 logger.info("peer %s has no systems left: no longer sent to", old.key)
+
+    def _still_speaks(self, peer: _Peer, now_s: float) -> bool:
+        heard = peer.last_heard_s
+        return peer.live and heard is not None and now_s - heard <= self.config.peer_timeout_s
 
     def _observe(self, now_s: float, rx_sysid: int, obs: m.Observation) -> None:
         if self._time.offset_s is None and check_values(obs, self.config) is None:

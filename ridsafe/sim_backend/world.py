@@ -21,6 +21,7 @@ A runner (UDP, lockstep) maps endpoint names to sockets or to in-memory peers. E
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 import logging
 import math
@@ -36,7 +37,13 @@ from ridsafe.common import protocol_messages as pm
 from ridsafe.common.errors import ClockError
 from ridsafe.common.logsink import LogSink, NullSink
 from ridsafe.common.scenario import Scenario
-from ridsafe.common.shell import AppShell, Datagrams, Endpoint
+from ridsafe.common.shell import (
+    AppShell,
+    Datagrams,
+    Endpoint,
+    from_system,
+    link_counter_values,
+)
 from ridsafe.sim_backend import telemetry
 from ridsafe.sim_backend.autopilot import (
     Autopilot,
@@ -222,10 +229,13 @@ class SimBackend:
         """Vehicle ``sysid``'s endpoint of ``kind``: the autopilot (component 1) parses and
         sends; on the companion link its RID transponder (236) sends too."""
         senders = {}
-        if kind is EndpointKind.COMPANION:
+        accept = None
+        if kind is EndpointKind.COMPANION:  # only the vehicle's own companion (its system id)
             senders[TRANSPONDER_COMPONENT] = codec.MavlinkLink(sysid, TRANSPONDER_COMPONENT)
+            accept = from_system(sysid)
         link = codec.MavlinkLink(sysid, AUTOPILOT_COMPONENT)
-        endpoint = self.shell.add(Endpoint(endpoint_name(sysid, kind), link, senders=senders))
+        name = endpoint_name(sysid, kind)
+        endpoint = self.shell.add(Endpoint(name, link, accept=accept, senders=senders))
         rates = self.config.telemetry_hz
         schedule = TelemetrySchedule(rates.by_id(), rates.initial_by_id())
         serial = 1 if kind is EndpointKind.COMPANION else 0  # SRx_ parameters of the link
@@ -247,9 +257,14 @@ class SimBackend:
         if not math.isfinite(now_s) or now_s < self.t_s - 1e-9:
             raise ClockError(f"sim time must not go backwards: now {self.t_s} s, asked {now_s} s")
         samples = self._samples()
-        for endpoint, received in self.shell.receive(inbound):
-            port = self.endpoints[endpoint.name]
-            self._route(port, received, samples[port.sysid - 1])
+        self.shell.dispatch(
+            inbound,
+            lambda endpoint, received: self._route(
+                self.endpoints[endpoint.name],
+                received,
+                samples[self.endpoints[endpoint.name].sysid - 1],
+            ),
+        )
         self.fleet.advance_to(now_s)
         self.t_s = now_s
         samples = self._samples()
@@ -456,6 +471,22 @@ class SimBackend:
 
     def link_counters(self) -> dict[str, codec.LinkCounters]:
         return self.shell.link_counters()
+
+    def valid_senders(self, name: str, data: bytes) -> set[tuple[int, int]]:
+        """Who sent a genuine frame in ``data`` on ``name`` (``AppShell.valid_senders``)."""
+        return self.shell.valid_senders(name, data)
+
+    def counter_values(self) -> dict[str, int]:
+        """Every counter of the backend, flat (the ``/app/counters`` record's)."""
+        out = {f"link_{k}": v for k, v in link_counter_values(self.shell.link_totals()).items()}
+        out.update(self.shell.counters.as_dict())
+        out.update(self.shell.edge_counters())
+        out.update(dataclasses.asdict(self.counters))
+        return out
+
+    def finish(self, now_s: float) -> None:
+        """Log the final ``/app/counters`` (call once when the run ends)."""
+        self.sink.log(topics.APP_COUNTERS, now_s, {"app": "sim", "counters": self.counter_values()})
 
 
 def _addressed(ack: m.CommandAck, received: codec.Received) -> m.CommandAck:

@@ -42,12 +42,18 @@ finite = st.floats(min_value=-1e4, max_value=1e4, allow_nan=False)
 lat = st.floats(min_value=-90, max_value=90, allow_nan=False)
 lon = st.floats(min_value=-180, max_value=180, allow_nan=False)
 vec = st.tuples(finite, finite, finite)
+#: Inside the edge's physical limits (codec.inbound): altitudes from -1 km, speeds to 300 m/s.
+alt_m = st.floats(min_value=-1e3, max_value=1e4, allow_nan=False)
+speed = st.floats(min_value=-300, max_value=300, allow_nan=False)
+velocity = st.tuples(speed, speed, speed)
+var = st.floats(0, 1e5)  # a variance is never negative
+cross = st.floats(-1e5, 1e5)
 uas_id = st.text(alphabet="ABCDEFGHJKLMNPRSTUVWXYZ0123456789", min_size=1, max_size=20)
 times = st.floats(min_value=0, max_value=4e6, allow_nan=False)
 
 
 @settings(max_examples=200, deadline=None)
-@given(t=times, la=lat, lo=lon, alt=finite, rel=finite, v=st.tuples(*[st.floats(-300, 300)] * 3))
+@given(t=times, la=lat, lo=lon, alt=alt_m, rel=finite, v=velocity)
 def test_global_position_int_round_trip_within_wire_scales(
     t: float, la: float, lo: float, alt: float, rel: float, v: m.Vec3
 ) -> None:
@@ -64,7 +70,7 @@ def test_global_position_int_round_trip_within_wire_scales(
 
 
 @settings(max_examples=200, deadline=None)
-@given(t=times, p=vec, v=vec, mask=st.sampled_from(list(m.PositionTargetMask)))
+@given(t=times, p=vec, v=velocity, mask=st.sampled_from(list(m.PositionTargetMask)))
 def test_set_position_target_round_trip(t: float, p: m.Vec3, v: m.Vec3, mask: int) -> None:
     sent = m.SetPositionTargetLocalNed(t, 3, 1, m.MavFrame.LOCAL_NED, mask, p, v, (0, 0, 0), 1, 0)
     got = _round_trip(sent)
@@ -77,8 +83,8 @@ def test_set_position_target_round_trip(t: float, p: m.Vec3, v: m.Vec3, mask: in
 @settings(max_examples=200, deadline=None)
 @given(
     t=times,
-    rx=st.tuples(lat, lon, finite),
-    claimed=st.tuples(lat, lon, finite),
+    rx=st.tuples(lat, lon, alt_m),
+    claimed=st.tuples(lat, lon, alt_m),
     rssi=st.floats(-150, 30),
     course=st.none() | st.floats(0, 359.99),
     speed_h=st.none() | st.floats(0, 254),
@@ -115,7 +121,7 @@ def test_observation_round_trip(
 @given(
     la=lat,
     lo=lon,
-    cov=st.tuples(*[st.floats(-1e5, 1e5)] * 6),
+    cov=st.tuples(var, cross, cross, var, cross, var),  # xx xy xz yy yz zz
     vel=st.tuples(*[st.floats(-50, 50)] * 3),
     sid=uas_id,
 )

@@ -56,6 +56,7 @@ def test_accepted_messages_come_out_with_their_endpoint_and_the_rest_is_counted(
         "datagrams_in": 3,
         "datagrams_out": 0,
         "unknown_endpoint": 1,
+        "handler_errors": 0,
         "foreign_system": 1,
         "other_component": 1,
     }

@@ -376,14 +376,21 @@ def test_a_silent_companion_is_dropped_and_comes_back_when_it_speaks() -> None:
 
 
 def test_a_system_that_moves_to_a_new_peer_is_served_there_only() -> None:
+    """A restarted companion (new address) is served at once; its system id moves there,
+    and the old address stops being served, once the old one has been silent for
+    ``peer_timeout_s`` (before that, another address cannot take the system away)."""
     pair = GcsPair(n_companions=1, pipeline=FakePipeline(alert_at_s=0.0))
     pair.run(1.0)
     pair.add_companion("c1-restarted", 1, None)
     pair.step({"c1-restarted": [companion_heartbeat()]})  # t = 1.05
-    pair.run(2.0, alive=["c1-restarted"])
+    assert pair.gcs.sysid_peers == {1: "c1"}
+    pair.run(6.0, alive=["c1-restarted"])
     assert pair.gcs.sysid_peers == {1: "c1-restarted"}
     assert pair.gcs.live_peers == ("c1-restarted",)
-    assert max(t for t, _ in pair.received["c1"]) == pytest.approx(1.0)
+    timeout_s = pair.gcs.config.peer_timeout_s
+    assert max(t for t, _ in pair.received["c1"]) <= 1.0 + timeout_s + 0.1
+    assert min(t for t, _ in pair.received["c1-restarted"]) <= 1.5  # the next cycle
+    assert counters(pair)["sysid_moves_refused"] >= 1
 
 
 def test_peers_are_bounded_and_a_dead_one_makes_room() -> None:

@@ -26,6 +26,7 @@ from ridsafe.common.codec.link import LinkCounters, MavlinkLink, Received
 from ridsafe.common.codec.registry import from_mavlink, to_mavlink
 from ridsafe.common.codec.signing import (
     SIGNING_EPOCH_UNIX_S,
+    ReplayWindow,
     SigningConfig,
     load_signing_key,
     signing_timestamp_from_unix,
@@ -54,6 +55,7 @@ __all__ = [
     "MavlinkLink",
     "Payload",
     "Received",
+    "ReplayWindow",
     "SigningConfig",
     "encode_payload",
     "from_mavlink",

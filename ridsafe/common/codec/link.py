@@ -11,10 +11,12 @@ logged, counted in ``LinkCounters`` and dropped, and parsing goes on with the ne
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 from ridsafe.common import messages as m
-from ridsafe.common.codec.signing import SigningConfig, SigningState
+from ridsafe.common.codec.inbound import first_invalid_field
+from ridsafe.common.codec.signing import ReplayWindow, SigningConfig, SigningState
 from ridsafe.common.codec.wire import (
     CRC_LEN,
     HEADER,
@@ -23,6 +25,7 @@ from ridsafe.common.codec.wire import (
     SIGNATURE_LEN,
     STX_V1,
     STX_V2,
+    Layout,
     Payload,
     encode_payload,
     layout,
@@ -57,6 +60,8 @@ class LinkCounters:
     invalid_value: int = 0
     rejected_signature: int = 0
     last_error: str = ""
+    #: ``invalid_value`` drops of decoded messages by ``"MESSAGE.field"`` (``codec.inbound``)
+    invalid_fields: dict[str, int] = field(default_factory=dict)
 
     @property
     def dropped(self) -> int:
@@ -78,14 +83,21 @@ class MavlinkLink:
     """
 
     def __init__(
-        self, src_system: int, src_component: int, signing: SigningConfig | None = None
+        self,
+        src_system: int,
+        src_component: int,
+        signing: SigningConfig | None = None,
+        replay: ReplayWindow | None = None,
     ) -> None:
+        """``replay``: the anti-replay state to check against; links of one core that share
+        a key share one (``ReplayWindow``), so a stream replayed through another socket is
+        still seen as old. Default: this link's own."""
         self._system, self._component, self._seq = src_system, src_component, 0
         self._incompat_flags = 0 if signing is None else IFLAG_SIGNED
         self._pending = b""
         self.counters = LinkCounters()
         self.signing = signing
-        self._signing = None if signing is None else SigningState(signing)
+        self._signing = None if signing is None else SigningState(signing, replay)
 
     @property
     def src_system(self) -> int:
@@ -123,6 +135,13 @@ class MavlinkLink:
         )
         packet += x25_crc(packet[1:] + crc_extra).to_bytes(2, "little")
         return packet if self._signing is None else self._signing.sign(packet)
+
+    def advance_signing_clock(self, elapsed_s: float) -> None:
+        """With signing: outgoing stamps at least ``initial_timestamp`` plus ``elapsed_s``
+        (the core's time since its signing clock started) in 10 us units."""
+        if self._signing is not None and elapsed_s > 0.0:
+            start = self._signing.config.initial_timestamp
+            self._signing.advance_to(start + int(elapsed_s * 100_000))
 
     def pack_all(self, messages: list[m.Message]) -> bytes:
         return b"".join(self.pack(message) for message in messages)
@@ -167,6 +186,39 @@ class MavlinkLink:
                 self._pending = buf[i:]
         return received
 
+    def valid_senders(self, data: bytes) -> list[tuple[int, int]]:
+        """(system, component) of every frame in one datagram that this link would take as
+        genuine: a known message id, a matching CRC and, with signing, a genuine and fresh
+        signature. Changes no state and counts nothing: for deciding whether a datagram's
+        source address may become the link's peer (``common.peer_lock``)."""
+        senders: list[tuple[int, int]] = []
+        i, n = 0, len(data)
+        while i < n:
+            i = data.find(b"\xfd", i)
+            if i < 0 or n - i < HEADER_LEN + CRC_LEN:
+                break
+            mlen, incompat = data[i + 1], data[i + 2]
+            end = (
+                i + HEADER_LEN + mlen + CRC_LEN + (SIGNATURE_LEN if incompat & IFLAG_SIGNED else 0)
+            )
+            packet_layout = layout(data[i + 7] | data[i + 8] << 8 | data[i + 9] << 16)
+            if incompat & ~IFLAG_SIGNED or end > n or packet_layout is None:
+                i += 1
+                continue
+            packet = data[i:end]
+            crc_end = HEADER_LEN + mlen
+            crc = packet[crc_end] | packet[crc_end + 1] << 8
+            if crc != x25_crc(packet[1:crc_end] + packet_layout.crc_extra_byte):
+                i += 1
+                continue
+            if self._signing is None or (
+                len(packet) > crc_end + CRC_LEN
+                and self._signing.genuine_and_fresh(packet, packet[5], packet[6])
+            ):
+                senders.append((packet[5], packet[6]))
+            i = end
+        return senders
+
     def _skip_garbage(self, buf: bytes, i: int) -> int:
         """Drop bytes up to the next MAVLink 2 start marker; returns where it is."""
         j = buf.find(b"\xfd", i + 1)
@@ -197,19 +249,33 @@ class MavlinkLink:
             packet, signed, src_system, src_component
         ):
             return len(packet), None
-        message = None
-        if packet_layout.decode is not None:
-            try:
-                message = packet_layout.decode(packet_layout.view(packet[HEADER_LEN:crc_end]))
-            except (WireError, ValueError, TypeError, UnicodeDecodeError) as exc:
-                self._drop("invalid_value", f"{packet_layout.name} from {src_system}: {exc}")
-                return len(packet), None
+        message = self._decode_message(packet_layout, packet[HEADER_LEN:crc_end], packet)
+        if message is False:
+            return len(packet), None
         if message is None:
             self.counters.unhandled += 1
             logger.debug("ignoring %s from %d", packet_layout.name, src_system)
             return len(packet), None
         self.counters.accepted += 1
         return len(packet), Received(src_system, src_component, message, signed)
+
+    def _decode_message(self, packet_layout: Layout, payload: bytes, packet: bytes) -> Any:
+        """The domain message of a checked packet; None: the apps do not use it; False:
+        a value no valid sender produces (dropped and counted by message and field)."""
+        if packet_layout.decode is None:
+            return None
+        name = packet_layout.name
+        try:
+            message = packet_layout.decode(packet_layout.view(payload))
+        except (WireError, ValueError, TypeError, UnicodeDecodeError, OverflowError) as exc:
+            self._reject_field(name, "decode", packet[5], packet[6], str(exc))
+            return False
+        if message is not None:
+            bad_field = first_invalid_field(message)
+            if bad_field is not None:
+                self._reject_field(name, bad_field, packet[5], packet[6], "out of range")
+                return False
+        return message
 
     def _signature_ok(self, packet: bytes, signed: bool, system: int, component: int) -> bool:
         """With a key: a valid, fresh signature is required (``SigningState.check``).
@@ -224,6 +290,13 @@ class MavlinkLink:
             self._drop("rejected_signature", reason)
             return False
         return True
+
+    def _reject_field(
+        self, name: str, bad_field: str, system: int, component: int, why: str
+    ) -> None:
+        key = f"{name}.{bad_field}"
+        self.counters.invalid_fields[key] = self.counters.invalid_fields.get(key, 0) + 1
+        self._drop("invalid_value", f"{key} from {system}/{component}: {why}")
 
     def _drop(self, kind: str, reason: str) -> None:
         """Count a drop; warn on the first of each kind and then every 1000th (a stream of

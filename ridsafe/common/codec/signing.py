@@ -57,19 +57,57 @@ def load_signing_key(path: str | Path) -> bytes:
 Stream = tuple[int, int, int]  # (link id, system, component)
 
 
+@dataclass
+class ReplayWindow:
+    """Anti-replay state: the newest timestamp accepted per stream, and the receive clock.
+
+    Kept per stream (link id, system, component), never per source address: a core that
+    talks to many peers through one key (the GCS) shares one window between all its peer
+    links, so a stream captured and re-sent from a new socket still carries old timestamps
+    and is refused (``replayed`` / ``stale_new_stream``)."""
+
+    timestamp: int = 0  # the newest timestamp accepted, or the owner's own clock
+    stream_timestamps: dict[Stream, int] = field(default_factory=dict)
+    replayed: int = 0
+    stale_new_stream: int = 0
+
+
 class SigningState:
     """One link's signing: signs what it sends, checks what it receives."""
 
-    def __init__(self, config: SigningConfig) -> None:
+    def __init__(self, config: SigningConfig, replay: ReplayWindow | None = None) -> None:
         self.config = config
         self.timestamp = config.initial_timestamp  # the link's clock: next outgoing stamp
-        self.stream_timestamps: dict[Stream, int] = {}
+        self.replay = replay if replay is not None else ReplayWindow()
+        self.replay.timestamp = max(self.replay.timestamp, config.initial_timestamp)
+
+    @property
+    def stream_timestamps(self) -> dict[Stream, int]:
+        return self.replay.stream_timestamps
 
     def sign(self, packet: bytes) -> bytes:
         """``packet`` (header to CRC) with its signature appended; advances the clock."""
         packet += struct.pack("<BQ", self.config.link_id, self.timestamp)[:7]
         self.timestamp += 1
         return packet + hashlib.sha256(self.config.key + packet).digest()[:6]
+
+    def advance_to(self, timestamp: int) -> None:
+        """Move the outgoing clock up to ``timestamp`` (never back). Stamps then follow
+        time, as the signing specification asks, not only the packet count: a receiver
+        that restarts with a clock-based start still finds the stream fresh."""
+        self.timestamp = max(self.timestamp, timestamp)
+
+    def genuine_and_fresh(self, packet: bytes, system: int, component: int) -> bool:
+        """Would ``check`` accept ``packet`` now? Changes nothing (for vetting a sender
+        before its address is trusted)."""
+        expected = hashlib.sha256(self.config.key + packet[:-6]).digest()[:6]
+        if expected != packet[-6:]:
+            return False
+        timestamp = int.from_bytes(packet[-12:-6], "little")
+        last = self.replay.stream_timestamps.get((packet[-13], system, component))
+        if last is not None:
+            return timestamp > last
+        return timestamp + NEW_STREAM_SLACK >= max(self.timestamp, self.replay.timestamp)
 
     def check(self, packet: bytes, system: int, component: int) -> str | None:
         """None if a signed ``packet`` is genuine and fresh, else why not. The signature is
@@ -82,11 +120,15 @@ class SigningState:
             return f"forged signature from {system}/{component}"
         timestamp = int.from_bytes(packet[-12:-6], "little")
         stream = (packet[-13], system, component)
-        last = self.stream_timestamps.get(stream)
+        window = self.replay
+        last = window.stream_timestamps.get(stream)
         if last is not None and timestamp <= last:
+            window.replayed += 1
             return f"replayed signature from {system}/{component}"
-        if last is None and timestamp + NEW_STREAM_SLACK < self.timestamp:
+        if last is None and timestamp + NEW_STREAM_SLACK < max(self.timestamp, window.timestamp):
+            window.stale_new_stream += 1
             return f"stale new stream from {system}/{component}"
-        self.stream_timestamps[stream] = timestamp
+        window.stream_timestamps[stream] = timestamp
+        window.timestamp = max(window.timestamp, timestamp)
         self.timestamp = max(self.timestamp, timestamp)
         return None

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from ridsafe.common.config import parse_override
 from ridsafe.common.runner import RunnerClock
+from ridsafe.tools.cli.arg_types import finite_float, positive_float
 from ridsafe.tools.run import process
 from ridsafe.tools.run.scenario import ScenarioFile, load_scenario_file
 
@@ -40,11 +41,13 @@ def load_scenario_args(args: argparse.Namespace) -> ScenarioFile:
 
 def add_process_arguments(parser: argparse.ArgumentParser) -> None:
     """--speed, --duration, --t0-unix, --log: how one app process runs in time."""
-    parser.add_argument("--speed", type=float, default=1.0, help="sim seconds per wall second")
-    parser.add_argument("--duration", type=float, help="stop at this sim time (s)")
+    parser.add_argument(
+        "--speed", type=positive_float, default=1.0, help="sim seconds per wall second"
+    )
+    parser.add_argument("--duration", type=positive_float, help="stop at this sim time (s)")
     parser.add_argument(
         "--t0-unix",
-        type=float,
+        type=finite_float,
         metavar="SECONDS",
         help="UNIX time at which sim time is 0, shared by every process of a live run",
     )

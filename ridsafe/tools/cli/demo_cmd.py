@@ -20,6 +20,7 @@ from ridsafe.common.logsink import NullSink
 from ridsafe.common.udp import UdpEndpoint
 from ridsafe.sim_backend.app import make_runner
 from ridsafe.sim_backend.world import EndpointKind
+from ridsafe.tools.cli.arg_types import positive_float
 from ridsafe.tools.run import cores
 from ridsafe.tools.run.demo import GroundStation
 from ridsafe.tools.run.scenario import load_scenario_file, rescale_aircraft
@@ -35,7 +36,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         description=__doc__,
     )
     parser.add_argument("config", nargs="?", help="scenario YAML (default configs/default.yaml)")
-    parser.add_argument("--speed", type=float, default=4.0, help="sim seconds per wall second")
+    parser.add_argument(
+        "--speed", type=positive_float, default=4.0, help="sim seconds per wall second"
+    )
     parser.set_defaults(func=run)
 
 

@@ -26,6 +26,7 @@ from ridsafe.common.errors import RidsafeError
 from ridsafe.companion.planners import PLANNERS
 from ridsafe.tools.analysis.metrics import compute_metrics
 from ridsafe.tools.cli import app_args
+from ridsafe.tools.cli.arg_types import non_negative_int, positive_float, positive_int
 from ridsafe.tools.run.live import run_live
 from ridsafe.tools.run.lockstep import run_lockstep
 from ridsafe.tools.run.scenario import ScenarioFile, with_aircraft
@@ -41,11 +42,15 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     app_args.add_scenario_arguments(parser)
     parser.add_argument("--out", type=Path, help="output folder (default out/run-<time>)")
     parser.add_argument("--mode", choices=("live", "lockstep"), default="live")
-    parser.add_argument("--seed", type=int, help="scenario seed")
-    parser.add_argument("--speed", type=float, default=1.0, help="live: sim s per wall s")
-    parser.add_argument("--aircraft", type=int, help="number of benign aircraft (rescales)")
+    parser.add_argument("--seed", type=non_negative_int, help="scenario seed")
+    parser.add_argument("--speed", type=positive_float, default=1.0, help="live: sim s per wall s")
+    parser.add_argument(
+        "--aircraft", type=positive_int, help="number of benign aircraft (rescales)"
+    )
     parser.add_argument("--planner", choices=sorted(PLANNERS), help="default: run.planner")
-    parser.add_argument("--duration", type=float, help="flight time (s), default the scenario's")
+    parser.add_argument(
+        "--duration", type=positive_float, help="flight time (s), default the scenario's"
+    )
     parser.add_argument("--json", action="store_true", help="print the metrics as JSON")
     parser.set_defaults(func=run)
 

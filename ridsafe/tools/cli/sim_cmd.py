@@ -13,6 +13,7 @@ from ridsafe.common.runner import UdpRunner
 from ridsafe.sim_backend.app import describe_ports, open_endpoints
 from ridsafe.sim_backend.world import SimBackend
 from ridsafe.tools.cli import app_args
+from ridsafe.tools.cli.arg_types import positive_int
 from ridsafe.tools.run import cores, process
 from ridsafe.tools.run.scenario import ScenarioFile, with_aircraft
 
@@ -29,7 +30,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     app_args.add_scenario_arguments(parser)
     app_args.add_process_arguments(parser)
     parser.add_argument(
-        "--vehicles", type=int, help="number of benign vehicles (rescales the scenario)"
+        "--vehicles", type=positive_int, help="number of benign vehicles (rescales the scenario)"
     )
     parser.add_argument("--no-spoofer", action="store_true", help="leave the spoofer out")
     parser.set_defaults(func=run)
@@ -79,8 +80,10 @@ def run(args: argparse.Namespace) -> int:
     finally:
         restore()
         runner.close()
+        backend.finish(backend.t_s)
         process.close_sink(sink)
-    print(f"done at t = {backend.t_s:.1f} s; {runner.stats}")
+    refused = sum(lock.foreign for lock in runner.locks.values())
+    print(f"done at t = {backend.t_s:.1f} s; {runner.stats}; not from the peer: {refused}")
     return 0
 
 

@@ -29,6 +29,7 @@ from tqdm import tqdm
 
 from ridsafe.common.config import parse_override, parse_yaml
 from ridsafe.common.errors import RidsafeError
+from ridsafe.tools.cli.arg_types import positive_float, positive_int
 from ridsafe.tools.sweep.config import ParamAxis, ParamValue, SweepConfig
 from ridsafe.tools.sweep.engines import DaskEngine, LocalPoolEngine, default_workers
 from ridsafe.tools.sweep.folder import RunOutcome, RunStatus, is_finished
@@ -53,12 +54,14 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("config", type=Path, help="scenario YAML, optionally with a sweep: section")
     parser.add_argument("--out", type=Path, help="sweep folder (default out/sweep-<config name>)")
     parser.add_argument("--engine", choices=("pool", "dask"), default="pool")
-    parser.add_argument("--workers", type=int, help=f"default: every core ({default_workers()})")
+    parser.add_argument(
+        "--workers", type=positive_int, help=f"default: every core ({default_workers()})"
+    )
     parser.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler (implies dask)")
     parser.add_argument("--densities", help="benign aircraft per scenario, e.g. 4,8,12,16")
     parser.add_argument("--seeds", help="e.g. 0:30 (start:stop) or 0,1,5")
     parser.add_argument("--planners", help="e.g. aware,trust-rid")
-    parser.add_argument("--duration", type=float, help="flight time (s) of every run")
+    parser.add_argument("--duration", type=positive_float, help="flight time (s) of every run")
     parser.add_argument(
         "--vary",
         action="append",

@@ -66,6 +66,7 @@ class Lockstep:
         for companion in self.companions.values():
             companion.finish(self.t_s)
         self.gcs.finish(self.t_s)
+        self.sim.finish(self.t_s)
 
 
 def lockstep_signing(loaded: ScenarioFile) -> codec.SigningConfig | None:

@@ -1,0 +1,194 @@
+"""Validation at the edge: every field of every decoded inbound message, checked once.
+
+``MavlinkLink.feed`` calls :func:`first_invalid_field` on each decoded domain message before
+any core sees it; a message with a field no valid sender produces is dropped and counted by
+``(message, field)`` (``LinkCounters.invalid_fields``, shown in every app's ``/app/counters``
+as ``invalid.<MESSAGE>.<field>``). Cores may then convert with ``int()`` / ``struct`` without
+guarding each value.
+
+The rules, in order:
+
+1. every ``float`` field (and every float inside a tuple field) is finite, except where
+   MAVLink gives NaN a meaning: the COMMAND_LONG parameters a command does not use ("unset")
+   and SET_POSITION_TARGET_LOCAL_NED's fields (NaN in fields the type mask ignores; the
+   autopilot refuses, with a STATUSTEXT, a NaN in a field it uses); inf is refused
+   everywhere;
+2. the per-message bounds of ``_BOUNDS`` below (closed intervals; physical limits far beyond
+   any aircraft this project flies, so a genuine sender never meets them):
+   times (a UNIX time after 2100 or a boot time beyond the uint32 ms wrap), positions
+   (|NED| <= 1,000 km, altitudes -1 km .. 100 km), speeds (<= 300 m/s), accelerations,
+   covariances (>= 0 on the diagonal);
+3. ``_COMMAND_PARAMS``: the parameters each handled MAV_CMD reads must be finite and, where
+   the autopilot converts them to integers, inside that integer's range (DO_SET_MODE's
+   base and custom modes are a uint8 and a uint32, message ids 24-bit). Ranges with a
+   meaning (an arm parameter that is neither 0 nor 1, a take-off altitude of 600 m) are the
+   autopilot's to refuse, with a COMMAND_ACK that says so;
+4. ids (``uas_id``): printable ASCII.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Callable
+from dataclasses import fields
+
+from ridsafe.common import messages as m
+
+__all__ = ["first_invalid_field"]
+
+#: Latest plausible UNIX time (2100-01-01T00:00:00Z), seconds.
+MAX_UNIX_TIME_S = 4_102_444_800.0
+#: A boot time in a uint32 millisecond field wraps at 2**32 ms; more is impossible.
+MAX_BOOT_TIME_S = 2**32 / 1000.0
+MAX_DISTANCE_M = 1.0e6
+MIN_ALT_M, MAX_ALT_M = -1.0e3, 1.0e5
+MAX_SPEED_M_S = 300.0
+MAX_ACCEL_M_S2 = 1.0e3
+#: Times of the project's own messages (sim / autopilot clock seconds): within the boot clock.
+MAX_MESSAGE_TIME_S = MAX_BOOT_TIME_S
+
+Bound = tuple[str, float, float]  # (field, low, high); tuples: every element
+
+
+def _norm_ok(values: tuple[float, ...], limit: float) -> bool:
+    return math.sqrt(sum(v * v for v in values)) <= limit
+
+
+_BOUNDS: dict[type, tuple[Bound, ...]] = {
+    m.SystemTime: (("time_unix_s", 0.0, MAX_UNIX_TIME_S), ("time_boot_s", 0.0, MAX_BOOT_TIME_S)),
+    m.SetPositionTargetLocalNed: (
+        ("p_ned_m", -MAX_DISTANCE_M, MAX_DISTANCE_M),
+        ("v_ned_m_s", -MAX_SPEED_M_S, MAX_SPEED_M_S),
+        ("a_ned_m_s2", -MAX_ACCEL_M_S2, MAX_ACCEL_M_S2),
+        ("yaw_rad", -100.0, 100.0),
+        ("yaw_rate_rad_s", -100.0, 100.0),
+    ),
+    m.GlobalPositionInt: (
+        ("alt_msl_m", MIN_ALT_M, MAX_ALT_M),
+        ("relative_alt_m", MIN_ALT_M - MAX_ALT_M, MAX_ALT_M - MIN_ALT_M),
+    ),
+    m.LocalPositionNed: (
+        ("p_ned_m", -MAX_DISTANCE_M, MAX_DISTANCE_M),
+        ("v_ned_m_s", -MAX_SPEED_M_S, MAX_SPEED_M_S),
+    ),
+    m.HomePosition: (
+        ("alt_msl_m", MIN_ALT_M, MAX_ALT_M),
+        ("p_ned_m", -MAX_DISTANCE_M, MAX_DISTANCE_M),
+    ),
+    m.Observation: (
+        ("t_s", 0.0, MAX_MESSAGE_TIME_S),
+        ("rx_alt_m", MIN_ALT_M, MAX_ALT_M),
+        ("claimed_alt_m", MIN_ALT_M, MAX_ALT_M),
+        ("claimed_speed_horizontal_m_s", 0.0, MAX_SPEED_M_S),
+        ("claimed_speed_vertical_m_s", -MAX_SPEED_M_S, MAX_SPEED_M_S),
+    ),
+    m.UnsafeRegionMsg: (
+        ("t_s", 0.0, MAX_MESSAGE_TIME_S),
+        ("valid_until_s", 0.0, MAX_MESSAGE_TIME_S),
+        ("center_alt_m", MIN_ALT_M, MAX_ALT_M),
+        ("v_ned_m_s", -MAX_SPEED_M_S, MAX_SPEED_M_S),
+        ("chi2_threshold", 0.0, 1.0e6),
+        ("alpha", 0.0, 1.0),
+    ),
+    m.SpoofAlert: (("t_s", 0.0, MAX_MESSAGE_TIME_S),),
+}
+
+_ID_FIELDS: dict[type, str] = {
+    m.Observation: "uas_id",
+    m.UnsafeRegionMsg: "uas_id",
+    m.SpoofAlert: "uas_id",
+}
+
+_UINT32 = float(2**32 - 1)
+#: Per handled command: the parameters (0-based) it reads and their closed ranges.
+_COMMAND_PARAMS: dict[int, tuple[tuple[int, float, float], ...]] = {
+    int(m.MavCmd.DO_SET_MODE): ((0, 0.0, 255.0), (1, 0.0, _UINT32)),
+    int(m.MavCmd.COMPONENT_ARM_DISARM): ((0, -math.inf, math.inf), (1, -math.inf, math.inf)),
+    int(m.MavCmd.NAV_TAKEOFF): ((6, -math.inf, math.inf),),
+    int(m.MavCmd.SET_MESSAGE_INTERVAL): ((0, 0.0, 2.0**24), (1, -math.inf, math.inf)),
+    int(m.MavCmd.REQUEST_MESSAGE): ((0, 0.0, 2.0**24),),
+}
+
+
+def _in_bounds(value: object, low: float, high: float) -> bool:
+    if value is None:
+        return True  # an "unknown" sentinel the codec mapped to None
+    if isinstance(value, tuple):
+        return all(_in_bounds(v, low, high) for v in value)
+    if isinstance(value, float) and math.isnan(value):
+        return True  # only where rule 1 let it through
+    return isinstance(value, int | float) and low <= value <= high
+
+
+@functools.cache
+def _field_names(cls: type) -> tuple[str, ...]:
+    return tuple(f.name for f in fields(cls))
+
+
+def _non_finite_field(message: m.Message) -> str | None:
+    cls: type = type(message)
+    bad = math.isinf if cls in _NAN_MEANS_UNSET else _not_finite
+    for name in _field_names(cls):
+        value = getattr(message, name)
+        if isinstance(value, float) and bad(value):
+            return name
+        if isinstance(value, tuple) and any(isinstance(v, float) and bad(v) for v in value):
+            return name
+    return None
+
+
+def _not_finite(value: float) -> bool:
+    return not math.isfinite(value)
+
+
+#: Messages whose float fields may be NaN ("ignored") on the wire.
+_NAN_MEANS_UNSET: frozenset[type] = frozenset({m.SetPositionTargetLocalNed})
+
+
+def _command_long(message: m.CommandLong) -> str | None:
+    used = _COMMAND_PARAMS.get(message.command, ())
+    for index, low, high in used:
+        value = message.params[index]
+        if not (math.isfinite(value) and low <= value <= high):
+            return f"param{index + 1}"
+    reads = {index for index, _, _ in used}
+    for index, value in enumerate(message.params):
+        if index not in reads and math.isinf(value):
+            return f"param{index + 1}"
+    return None
+
+
+def _region(message: m.UnsafeRegionMsg) -> str | None:
+    xx, _, _, yy, _, zz = message.cov_ned_m2
+    if not (0.0 <= xx <= 1e12 and 0.0 <= yy <= 1e12 and 0.0 <= zz <= 1e12):
+        return "cov_ned_m2"
+    return None
+
+
+_SPECIAL: dict[type, Callable[[m.Message], str | None]] = {
+    m.CommandLong: _command_long,  # type: ignore[dict-item]
+    m.UnsafeRegionMsg: _region,  # type: ignore[dict-item]
+}
+
+
+def first_invalid_field(message: m.Message) -> str | None:
+    """The name of the first field of ``message`` no valid sender produces, or None."""
+    special = _SPECIAL.get(type(message))
+    if special is not None:
+        bad = special(message)
+        if bad is not None:
+            return bad
+    if not isinstance(message, m.CommandLong | m.OdidRaw):
+        bad = _non_finite_field(message)
+        if bad is not None:
+            return bad
+    for name, low, high in _BOUNDS.get(type(message), ()):
+        if not _in_bounds(getattr(message, name), low, high):
+            return name
+    id_field = _ID_FIELDS.get(type(message))
+    if id_field is not None:
+        text = getattr(message, id_field)
+        if not (text.isascii() and text.isprintable()):
+            return id_field
+    return None

@@ -1,0 +1,155 @@
+"""A fuzz campaign against one core of a real lockstep run, then a check that it still works.
+
+1. **Seeds from a real run** (``warm_up``): the scenario's cores are built by the factory and
+   run in lockstep for ``warm_s``; every datagram each core receives is recorded, by
+   endpoint. Nothing is committed: the corpus is made at run time.
+2. **Fuzz** (``fuzz_core``): with the run paused at ``warm_s``, the target core (``sim``,
+   ``companion``, ``gcs``) is fed ``n`` mutated datagrams (``mutate.Mutator``; signed with
+   the run's key on keyed links), one ``handle`` call each at the paused time; what it sends
+   is dropped (as if lost). Counted: crashes (an exception out of ``handle``), calls over
+   ``SLOW_CALL_MS`` (100 ms) and over ``HANG_CALL_MS`` (1 s), the slowest call.
+3. **Still works** (``finish_and_check``): the whole run goes on, clean, to the scenario's
+   end; the fuzzed core must still do its job: the sim still flies (telemetry reaches every
+   companion after the campaign), the companion still plans (decisions after the campaign,
+   or its mission done), the GCS still tracks (cycles and regions after the campaign). The
+   missions' phases are reported too.
+"""
+
+from __future__ import annotations
+
+import random
+import time
+from dataclasses import dataclass, field
+
+from ridsafe.common.codec import SigningConfig
+from ridsafe.common.logsink import NullSink
+from ridsafe.common.shell import Datagrams, SansIoCore
+from ridsafe.tools.fuzz.mutate import Mutator
+from ridsafe.tools.run import lockstep
+from ridsafe.tools.run.scenario import ScenarioFile
+
+__all__ = ["CORES", "SLOW_CALL_MS", "FuzzReport", "FuzzRun", "warm_up"]
+
+SLOW_CALL_MS = 100.0
+HANG_CALL_MS = 1000.0
+CORES = ("sim", "companion", "gcs")
+_KEYED_ENDPOINTS = ("gcs", "companions@")  # the companion's GCS link, the GCS's peer links
+
+
+@dataclass
+class FuzzReport:
+    core: str
+    inputs: int = 0
+    seconds: float = 0.0
+    crashes: int = 0
+    slow_calls: int = 0  # over SLOW_CALL_MS
+    hangs: int = 0  # over HANG_CALL_MS
+    slowest_ms: float = 0.0
+    first_crashes: list[str] = field(default_factory=list)
+    still_works: bool | None = None
+    job: str = ""
+
+    @property
+    def inputs_per_s(self) -> float:
+        return self.inputs / self.seconds if self.seconds > 0 else 0.0
+
+
+class _Recorder:
+    """A core that records what it is handed, then hands it on."""
+
+    def __init__(self, core: SansIoCore, into: Datagrams) -> None:
+        self.core, self.into = core, into
+
+    def handle(self, now_s: float, inbound: Datagrams) -> Datagrams:
+        self.into.extend(inbound)
+        return self.core.handle(now_s, inbound)
+
+
+@dataclass
+class FuzzRun:
+    """A lockstep run paused at ``warm_s`` with the datagrams each core received so far."""
+
+    run: lockstep.Lockstep
+    seeds: dict[str, Datagrams]
+    signing: SigningConfig | None
+    duration_s: float
+
+    def core_name(self, target: str) -> str:
+        if target == "companion":
+            return lockstep.companion_core(min(self.run.companions))
+        if target not in ("sim", "gcs"):
+            raise ValueError(f"unknown core {target!r}; expected one of {CORES}")
+        return target
+
+    def fuzz_core(self, target: str, n: int, rng: random.Random) -> FuzzReport:
+        """Feed ``n`` mutated datagrams to ``target`` at the paused time (module docstring)."""
+        name = self.core_name(target)
+        core = self.run.router.cores[name]
+        pool = [(endpoint, data) for endpoint, data in self.seeds[name] if data]
+        if not pool:
+            raise ValueError(f"no datagrams captured for {name}: warm up longer")
+        mutator, report, now_s = Mutator(rng), FuzzReport(target), self.run.t_s
+        start = time.perf_counter()
+        for _ in range(n):
+            endpoint, seed = rng.choice(pool)
+            other = rng.choice(pool)[1]
+            keyed = endpoint.startswith(_KEYED_ENDPOINTS)
+            data = mutator.mutate(seed, other, self.signing if keyed else None)
+            self._call(report, core, now_s, [(endpoint, data)])
+        report.inputs, report.seconds = n, time.perf_counter() - start
+        return report
+
+    def _call(self, report: FuzzReport, core: SansIoCore, now_s: float, inbound: Datagrams) -> None:
+        t0 = time.perf_counter()
+        try:
+            core.handle(now_s, inbound)
+        except Exception as exc:  # what the campaign is looking for: counted, kept
+            report.crashes += 1
+            if len(report.first_crashes) < 5:
+                report.first_crashes.append(f"{type(exc).__name__}: {exc}")
+        elapsed_ms = (time.perf_counter() - t0) * 1e3
+        report.slowest_ms = max(report.slowest_ms, elapsed_ms)
+        report.slow_calls += elapsed_ms > SLOW_CALL_MS
+        report.hangs += elapsed_ms > HANG_CALL_MS
+
+    def finish_and_check(self, report: FuzzReport) -> FuzzReport:
+        """Run on, clean, to the end; judge whether the fuzzed core still does its job."""
+        fuzz_end_s = self.run.t_s
+        gcs = self.run.gcs
+        cycles, regions = gcs.counters.cycles, gcs.counters.regions_sent
+        decisions = {s: c.pilot.counters.decisions for s, c in self.run.companions.items()}
+        while self.run.t_s < self.duration_s - 1e-9:
+            self.run.step()
+        self.run.finish()
+        phases = {s: c.phase.value for s, c in self.run.companions.items()}
+        if report.core == "sim":
+            fresh = [c.own.gpi_s > fuzz_end_s + 1.0 for c in self.run.companions.values()]
+            report.still_works = all(fresh)
+            report.job = f"telemetry after the campaign to {sum(fresh)}/{len(fresh)} companions"
+        elif report.core == "companion":
+            sysid = min(self.run.companions)
+            companion = self.run.companions[sysid]
+            planned = companion.pilot.counters.decisions - decisions[sysid]
+            report.still_works = planned > 0 or companion.phase.value == "done"
+            report.job = f"{planned} decisions after the campaign"
+        else:
+            new_cycles = gcs.counters.cycles - cycles
+            new_regions = gcs.counters.regions_sent - regions
+            report.still_works = new_cycles > 0 and new_regions > 0
+            report.job = f"{new_cycles} cycles, {new_regions} regions after the campaign"
+        report.job += f"; missions {phases}"
+        return report
+
+
+def warm_up(loaded: ScenarioFile, planner: str, warm_s: float) -> FuzzRun:
+    """Build the scenario's cores and run them clean for ``warm_s``, recording every
+    datagram each core receives (the seed corpus)."""
+    run = lockstep.build(loaded, planner, NullSink())
+    seeds: dict[str, Datagrams] = {name: [] for name in run.router.cores}
+    originals = dict(run.router.cores)
+    for name, core in originals.items():
+        run.router.cores[name] = _Recorder(core, seeds[name])
+    while run.t_s < warm_s - 1e-9:
+        run.step()
+    run.router.cores.update(originals)
+    return FuzzRun(run, seeds, lockstep.lockstep_signing(loaded), loaded.scenario.duration_s)
