@@ -55,6 +55,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ridsafe.common.ellipsoid import mahalanobis2
+from ridsafe.tools.analysis.adversary_metrics import adversary_metrics
 from ridsafe.tools.analysis.encounters import airborne, count_entry_events, pair_entry_events
 from ridsafe.tools.analysis.run_arrays import Regions, RunLog, Truth, load_run
 
@@ -277,7 +278,7 @@ def compute_metrics(
     distance = distance_to_spoofer_m(run, min_height_m)
     end = run.end or {}
     wall = end.get("wall_clock_s")
-    return {
+    metrics: Metrics = {
         "nmac_benign_benign": nmac_bb,
         "nmac_benign_spoofer": nmac_bs,
         "unsafe_violations": _unsafe_violations(run, min_height_m),
@@ -299,3 +300,5 @@ def compute_metrics(
         "gcs_update_p99_ms": _percentile(run.gcs_compute_ms, 99.0),
         "planner_decision_p99_ms": _percentile(run.decision_compute_ms, 99.0),
     }
+    metrics.update(adversary_metrics(run, min_height_m, arrival_times_s(run)))  # several/ghosts
+    return metrics

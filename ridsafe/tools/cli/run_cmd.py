@@ -62,7 +62,7 @@ def effective_scenario(args: argparse.Namespace) -> ScenarioFile:
         scenario = dataclasses.replace(loaded.scenario, **changes)  # type: ignore[arg-type]
         loaded = dataclasses.replace(loaded, scenario=scenario)
     if args.aircraft is not None:
-        loaded = with_aircraft(loaded, args.aircraft)
+        loaded = with_aircraft(loaded, args.aircraft, app_args.override_pairs(args))
     return loaded
 
 
