@@ -72,7 +72,11 @@ _CLAIM_OPTIONAL: dict[str, tuple[str, ...]] = {
 
 
 def _check_kind_keys(
-    obj: object, kind: str, required: tuple[str, ...], optional: tuple[str, ...], all_keys: tuple[str, ...]
+    obj: object,
+    kind: str,
+    required: tuple[str, ...],
+    optional: tuple[str, ...],
+    all_keys: tuple[str, ...],
 ) -> None:
     """Keys of ``kind`` present, keys of other kinds absent (None)."""
     for key in required:
@@ -80,7 +84,9 @@ def _check_kind_keys(
             raise FieldValueError(key, f"required for kind {kind!r}")
     for key in all_keys:
         if key not in required and key not in optional and getattr(obj, key) is not None:
-            raise FieldValueError(key, f"not a key of kind {kind!r} (its keys: {required + optional})")
+            raise FieldValueError(
+                key, f"not a key of kind {kind!r} (its keys: {required + optional})"
+            )
 
 
 def _check_points(name: str, points: tuple[Vec3, ...], minimum: int) -> None:
@@ -107,9 +113,20 @@ class MotionConfig:
     standoff_m: float | None = None
 
     def __post_init__(self) -> None:
-        keys = ("start_enu_m", "goal_enu_m", "waypoints_enu_m", "loop", "centre_enu_m",
-                "radius_m", "clockwise", "target_serial", "standoff_m")
-        _check_kind_keys(self, self.kind, _MOTION_KEYS[self.kind], _MOTION_OPTIONAL[self.kind], keys)
+        keys = (
+            "start_enu_m",
+            "goal_enu_m",
+            "waypoints_enu_m",
+            "loop",
+            "centre_enu_m",
+            "radius_m",
+            "clockwise",
+            "target_serial",
+            "standoff_m",
+        )
+        _check_kind_keys(
+            self, self.kind, _MOTION_KEYS[self.kind], _MOTION_OPTIONAL[self.kind], keys
+        )
         check_in_interval("speed_m_s", self.speed_m_s, 0.0, MAX_SPOOFER_SPEED_M_S)
         for name in ("start_enu_m", "goal_enu_m", "centre_enu_m"):
             value = getattr(self, name)
@@ -159,8 +176,18 @@ class ClaimConfig:
     loop: bool | None = None
 
     def __post_init__(self) -> None:
-        keys = ("offset_enu_m", "rate_enu_m_s", "start_s", "max_offset_m", "target_serial",
-                "delay_s", "at_enu_m", "waypoints_enu_m", "speed_m_s", "loop")
+        keys = (
+            "offset_enu_m",
+            "rate_enu_m_s",
+            "start_s",
+            "max_offset_m",
+            "target_serial",
+            "delay_s",
+            "at_enu_m",
+            "waypoints_enu_m",
+            "speed_m_s",
+            "loop",
+        )
         _check_kind_keys(self, self.kind, _CLAIM_KEYS[self.kind], _CLAIM_OPTIONAL[self.kind], keys)
         if self.offset_enu_m is not None:
             check_finite_vector("offset_enu_m", self.offset_enu_m, 10_000.0, " m")
@@ -210,7 +237,9 @@ class TxPowerConfig:
 def _check_intervals(name: str, intervals: tuple[tuple[float, float], ...]) -> None:
     for i, (t0, t1) in enumerate(intervals):
         if not 0.0 <= t0 < t1 <= 86_400.0:
-            raise FieldValueError(f"{name}[{i}]", f"expected 0 <= start < end <= 86400 s, got {[t0, t1]}")
+            raise FieldValueError(
+                f"{name}[{i}]", f"expected 0 <= start < end <= 86400 s, got {[t0, t1]}"
+            )
 
 
 def silent_at(intervals: tuple[tuple[float, float], ...], now_s: float) -> bool:

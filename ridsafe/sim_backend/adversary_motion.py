@@ -32,7 +32,11 @@ class WaypointPath:
     """Constant-speed piecewise-linear path through ``points`` from ``t0_s``."""
 
     def __init__(
-        self, points: Sequence[Sequence[float]], speed_m_s: float, loop: bool = False, t0_s: float = 0.0
+        self,
+        points: Sequence[Sequence[float]],
+        speed_m_s: float,
+        loop: bool = False,
+        t0_s: float = 0.0,
     ) -> None:
         pts = [np.asarray(p, dtype=np.float64) for p in points]
         if loop and len(pts) > 1:
@@ -134,6 +138,4 @@ def make_mission(
             motion.centre_enu_m, motion.radius_m, motion.speed_m_s, bool(motion.clockwise)
         )
     assert target_position is not None
-    return PursueMission(
-        own_position, target_position, motion.speed_m_s, motion.standoff_m or 0.0
-    )
+    return PursueMission(own_position, target_position, motion.speed_m_s, motion.standoff_m or 0.0)

@@ -15,10 +15,9 @@ nothing (its slots pass unused).
 from __future__ import annotations
 
 import math
-
-import numpy as np
 from collections.abc import Callable
 
+import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ridsafe.common import frames, rid

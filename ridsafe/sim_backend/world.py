@@ -1,8 +1,9 @@
 """The sim backend core, sans I/O: ``handle(now_s, inbound) -> outbound``.
 
 One ``SimBackend`` holds every vehicle of a scenario (benign aircraft 1..N, the spoofers
-N + 1.., then the ghosts' transmitters: ``ridsafe.sim_backend.adversaries``), each with an ArduCopter-like autopilot and a Remote ID transponder, and the radio
-channel between the transponders. It speaks MAVLink bytes on named endpoints:
+N + 1.., then the ghosts' transmitters: ``ridsafe.sim_backend.adversaries``), each with
+an ArduCopter-like autopilot and a Remote ID transponder, and the radio channel between
+the transponders. It speaks MAVLink bytes on named endpoints:
 
 - ``v{i}/companion``: vehicle i's companion-computer link (autopilot compid 1 and
   transponder compid 236 share it);
@@ -35,6 +36,7 @@ from ridsafe.common.logsink import LogSink, NullSink
 from ridsafe.common.scenario import Scenario
 from ridsafe.common.shell import AppShell, Datagrams, Endpoint
 from ridsafe.sim_backend import telemetry
+from ridsafe.sim_backend.adversaries import Adversaries
 from ridsafe.sim_backend.autopilot import (
     Autopilot,
     CommandContext,
@@ -44,7 +46,6 @@ from ridsafe.sim_backend.autopilot import (
 from ridsafe.sim_backend.config import SimConfig
 from ridsafe.sim_backend.dynamics import EULER, IDX_PSI, POS_ENU, STATE_SIZE, VEL_ENU
 from ridsafe.sim_backend.radio import RadioChannel, Reception, Transmission
-from ridsafe.sim_backend.adversaries import Adversaries
 from ridsafe.sim_backend.telemetry import FleetSnapshot, TelemetrySchedule
 from ridsafe.sim_backend.transponder import STATIC_PERIOD_S, TRANSPONDER_COMPONENT, Transponder
 from ridsafe.sim_backend.vehicles import OctorotorFleet
@@ -275,9 +276,7 @@ class SimBackend:
             "mode": list(truth.modes),
             "spoofer_sysid": spoofer,
             "spoofer_claimed_p_enu_m": None if claimed is None else claimed.round(4).tolist(),
-            "adversaries": self.adversaries.truth_record(
-                truth.t_s, truth.p_enu_m, truth.v_enu_m_s
-            ),
+            "adversaries": self.adversaries.truth_record(truth.t_s, truth.p_enu_m, truth.v_enu_m_s),
         }
 
     def _samples(self) -> list[VehicleSample]:

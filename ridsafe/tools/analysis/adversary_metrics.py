@@ -51,7 +51,9 @@ def _alert_s(run: RunLog, serial: str) -> float | None:
     return None
 
 
-def _containment(run: RunLog, serial: str, column: int, since_s: float, point: FloatArray | None = None) -> float | None:
+def _containment(
+    run: RunLog, serial: str, column: int, since_s: float, point: FloatArray | None = None
+) -> float | None:
     """Fraction of ``serial``'s regions at/after ``since_s`` containing the truth of ``column``
     (or the fixed ``point``)."""
     regions = run.regions.select((run.regions.uas_id == serial) & (run.regions.t_s >= since_s))

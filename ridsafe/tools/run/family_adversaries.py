@@ -74,7 +74,10 @@ class AdversaryDraw:
         check_at_least("spoofer_count", self.spoofer_count, 0)
         check_at_least("ghost_count", self.ghost_count, 0)
         check_at_least("waypoint_count", self.waypoint_count, 2)
-        for name, kinds, known in (("motions", self.motions, _MOTIONS), ("claims", self.claims, _CLAIMS)):
+        for name, kinds, known in (
+            ("motions", self.motions, _MOTIONS),
+            ("claims", self.claims, _CLAIMS),
+        ):
             if not kinds:
                 raise FieldValueError(name, "need at least one kind")
             for i, kind in enumerate(kinds):
@@ -124,15 +127,21 @@ def draw_spoofer(
     elif motion_kind == "orbit":
         depot = depots_enu_m[int(u[3] * len(depots_enu_m))]
         motion = MotionConfig(
-            "orbit", aimed_line.speed_m_s, centre_enu_m=(depot[0], depot[1], alt_m),
-            radius_m=draw.orbit_radius_m, clockwise=bool(u[4] < 0.5),
+            "orbit",
+            aimed_line.speed_m_s,
+            centre_enu_m=(depot[0], depot[1], alt_m),
+            radius_m=draw.orbit_radius_m,
+            clockwise=bool(u[4] < 0.5),
         )
     else:
         heading = 2 * math.pi * u[5]
         start = (1.05 * half_width_m * math.cos(heading), 1.05 * half_width_m * math.sin(heading))
         motion = MotionConfig(
-            "pursue", draw.pursue_speed_m_s, start_enu_m=_vec((*start, alt_m)),
-            target_serial=target, standoff_m=0.0,
+            "pursue",
+            draw.pursue_speed_m_s,
+            start_enu_m=_vec((*start, alt_m)),
+            target_serial=target,
+            standoff_m=0.0,
         )
     claim = _claim(claim_kind, u, target, aimed_line, w, alt_m, draw)
     power = None
@@ -150,7 +159,12 @@ def draw_spoofer(
 
 
 def _claim(
-    kind: str, u: np.ndarray, target: str, aimed_line: SpooferConfig, w: float, alt_m: float,
+    kind: str,
+    u: np.ndarray,
+    target: str,
+    aimed_line: SpooferConfig,
+    w: float,
+    alt_m: float,
     draw: AdversaryDraw,
 ) -> ClaimConfig:
     if kind == "offset":
@@ -159,7 +173,9 @@ def _claim(
         angle = 2 * math.pi * u[6]
         rate = (draw.drift_rate_m_s * math.cos(angle), draw.drift_rate_m_s * math.sin(angle), 0.0)
         return ClaimConfig(
-            "drift", rate_enu_m_s=_vec(rate), start_s=draw.drift_start_s,
+            "drift",
+            rate_enu_m_s=_vec(rate),
+            start_s=draw.drift_start_s,
             max_offset_m=draw.drift_max_offset_m,
         )
     if kind == "mimic":
@@ -182,7 +198,9 @@ def draw_ghost(
         claim=ClaimConfig(
             "waypoints", waypoints_enu_m=_at_alt(points, alt_m), speed_m_s=draw.ghost_speed_m_s
         ),
-        tx_power=None if draw.tx_power_dbm is None else TxPowerConfig("fixed", dbm=draw.tx_power_dbm),
+        tx_power=None
+        if draw.tx_power_dbm is None
+        else TxPowerConfig("fixed", dbm=draw.tx_power_dbm),
     )
 
 

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -77,7 +77,7 @@ class FamilyConfig:
     nominal_takeoff_s: float = 4.0  # from departure to leaving the pad
     nmac_radius_m: float = 50.0
     aim_horizon_s: float = 120.0  # how far ahead the spoofer's aim looks (not the duration)
-    adversaries: AdversaryDraw = AdversaryDraw()
+    adversaries: AdversaryDraw = field(default_factory=AdversaryDraw)
 
     def __post_init__(self) -> None:
         if not self.depots_enu_m:
@@ -98,12 +98,12 @@ def generate(base: Scenario, n_aircraft: int, seed: int, family: FamilyConfig) -
         raise ValueError(f"need at least one aircraft, got {n_aircraft}")
     draw = rng.stream(seed, "scenario")
     aircraft = tuple(_aircraft(k, draw, family) for k in range(n_aircraft))
-    draw = family.adversaries
+    wanted = family.adversaries
     name = f"family-n{n_aircraft}-s{seed}"
-    if draw.is_default:
+    if wanted.is_default:
         spoofer = _aimed_line(aircraft, seed, "scenario/spoofer", family)
-        if draw.tx_power_dbm is not None:
-            spoofer = dataclasses.replace(spoofer, tx_power_dbm=draw.tx_power_dbm)
+        if wanted.tx_power_dbm is not None:
+            spoofer = dataclasses.replace(spoofer, tx_power_dbm=wanted.tx_power_dbm)
         return dataclasses.replace(
             base, aircraft=aircraft, spoofer=spoofer, spoofers=(), ghosts=(), seed=seed, name=name
         )
@@ -111,22 +111,30 @@ def generate(base: Scenario, n_aircraft: int, seed: int, family: FamilyConfig) -
         draw_spoofer(
             k,
             seed,
-            _aimed_line(aircraft, seed, "scenario/spoofer" if k == 0 else f"scenario/spoofer/{k}", family),
+            _aimed_line(
+                aircraft, seed, "scenario/spoofer" if k == 0 else f"scenario/spoofer/{k}", family
+            ),
             aircraft,
             family.depots_enu_m,
             family.half_width_m,
             family.spoofer_alt_m,
             base.radio.tx_power_dbm,
-            draw,
+            wanted,
         )
-        for k in range(draw.spoofer_count)
+        for k in range(wanted.spoofer_count)
     )
     ghosts = tuple(
-        draw_ghost(k, seed, family.half_width_m, family.spoofer_alt_m, draw)
-        for k in range(draw.ghost_count)
+        draw_ghost(k, seed, family.half_width_m, family.spoofer_alt_m, wanted)
+        for k in range(wanted.ghost_count)
     )
     return dataclasses.replace(
-        base, aircraft=aircraft, spoofer=None, spoofers=spoofers, ghosts=ghosts, seed=seed, name=name
+        base,
+        aircraft=aircraft,
+        spoofer=None,
+        spoofers=spoofers,
+        ghosts=ghosts,
+        seed=seed,
+        name=name,
     )
 
 
