@@ -22,7 +22,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ridsafe.common import rng
-from ridsafe.common.adversary import ClaimConfig, GhostConfig, SpooferConfig, TxPowerConfig
+from ridsafe.common.adversary import (
+    ClaimConfig,
+    GhostConfig,
+    SpooferConfig,
+    TxPowerConfig,
+    silent_at,
+)
 from ridsafe.common.scenario import Scenario
 from ridsafe.sim_backend.adversary_claim import Claim, TrackHistory, TxPowerDraw
 from ridsafe.sim_backend.adversary_motion import Mission, make_mission
@@ -178,6 +184,15 @@ class Adversaries:
             history.record(now_s, p_enu_m[index], v_enu_m_s[index])
 
     @property
+    def has_silences(self) -> bool:
+        return any(a.broadcaster.silent_intervals_s for a in self.items)
+
+    def silent(self, index: int, now_s: float) -> bool:
+        """Vehicle ``index`` is an adversary in one of its silent windows."""
+        adversary = self.by_index.get(index)
+        return adversary is not None and silent_at(adversary.broadcaster.silent_intervals_s, now_s)
+
+    @property
     def has_random_power(self) -> bool:
         return any(a.power is not None for a in self.items)
 
@@ -198,7 +213,7 @@ class Adversaries:
             claimed, claimed_v = a.broadcaster.claimed_state(
                 now_s, p_enu_m[a.index], v_enu_m_s[a.index]
             )
-            silent = any(t0 <= now_s < t1 for t0, t1 in a.broadcaster.silent_intervals_s)
+            silent = silent_at(a.broadcaster.silent_intervals_s, now_s)
             out.append(
                 {
                     "sysid": a.index + 1,

@@ -344,6 +344,10 @@ class SimBackend:
             self._pending_air.extend(
                 Transmission(now_s, i, frame) for frame in transponder.due_static(now_s)
             )
+        if self.adversaries.has_silences:  # nothing at all from a silent transmitter
+            self._pending_air = [
+                tx for tx in self._pending_air if not self.adversaries.silent(tx.sender, now_s)
+            ]
         self.last_transmissions, self._pending_air = self._pending_air, []
         positions = self.fleet.state[:, POS_ENU]
         if self.adversaries.has_random_power:
