@@ -73,9 +73,11 @@ def test_the_pursuer_aims_at_its_target_and_stops_at_the_standoff() -> None:
     chase = PursueMission(lambda: own, lambda: target, 6.0, standoff_m=20.0)
     p, v = chase.target(0.0)
     np.testing.assert_allclose(v, (6.0, 0.0, 0.0))
-    own = np.array([85.0, 0.0, 60.0])
+    np.testing.assert_allclose(p, (6.0, 0.0, 60.0))  # one second of flight ahead
+    own = np.array([85.0, 0.0, 60.0])  # 15 m from the target: inside the standoff
     p, v = chase.target(1.0)
     np.testing.assert_allclose(v, 0.0)
+    np.testing.assert_allclose(p, own)
 
 
 def test_drift_is_honest_until_its_start_then_grows_at_its_rate_to_its_cap() -> None:
