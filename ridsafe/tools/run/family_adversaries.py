@@ -23,9 +23,10 @@ random place, claiming ``waypoint_count`` points crossing the area at ``ghost_sp
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -48,10 +49,36 @@ _MOTIONS = ("line", "waypoints", "orbit", "pursue")
 _CLAIMS = ("offset", "drift", "mimic", "fixed")
 
 
+#: Named cells (``preset``): the kind keys each sets (one sweep axis, one cell per attack).
+PRESETS: dict[str, dict[str, Any]] = {
+    "line": {},
+    "pursue": {"motions": ("pursue",)},
+    "orbit": {"motions": ("orbit",)},
+    "waypoints": {"motions": ("waypoints",)},
+    "drift": {"claims": ("drift",)},
+    "mimic": {"claims": ("mimic",)},
+    "fixed": {"claims": ("fixed",)},
+    "random-power": {"tx_power_kind": "random"},
+    "silent": {"silent_intervals_s": ((40.0, 55.0),)},
+    "two-spoofers": {"spoofer_count": 2},
+    "two-ghosts": {"ghost_count": 2},
+    "pursue-drift": {"motions": ("pursue",), "claims": ("drift",)},
+    "mixed": {
+        "spoofer_count": 3,
+        "motions": _MOTIONS,
+        "claims": _CLAIMS,
+        "tx_power_kind": "random",
+        "ghost_count": 1,
+    },
+}
+
+
 @dataclass(frozen=True)
 class AdversaryDraw:
-    """How many spoofers and ghosts a family scenario has, and of which kinds."""
+    """How many spoofers and ghosts a family scenario has, and of which kinds. ``preset``
+    (a name of ``PRESETS``) sets the kind keys of one named cell over the ones given."""
 
+    preset: str = ""
     spoofer_count: int = 1
     motions: tuple[str, ...] = ("line",)
     claims: tuple[str, ...] = ("offset",)
@@ -71,6 +98,10 @@ class AdversaryDraw:
     mimic_delay_s: float = 10.0
 
     def __post_init__(self) -> None:
+        if self.preset and self.preset not in PRESETS:
+            raise FieldValueError(
+                "preset", f"unknown preset {self.preset!r} (known: {list(PRESETS)})"
+            )
         check_at_least("spoofer_count", self.spoofer_count, 0)
         check_at_least("ghost_count", self.ghost_count, 0)
         check_at_least("waypoint_count", self.waypoint_count, 2)
@@ -88,10 +119,16 @@ class AdversaryDraw:
         for name in ("drift_rate_m_s", "drift_start_s", "mimic_delay_s", "tx_power_sigma_db"):
             check_non_negative(name, getattr(self, name))
 
+    def resolved(self) -> AdversaryDraw:
+        """The draw with its preset's keys applied."""
+        if not self.preset:
+            return self
+        return dataclasses.replace(self, preset="", **PRESETS[self.preset])
+
     @property
     def is_default(self) -> bool:
         """One aimed-line offset spoofer at fixed power, no ghosts: the family as it was."""
-        return self == AdversaryDraw(tx_power_dbm=self.tx_power_dbm)
+        return not self.preset and self == AdversaryDraw(tx_power_dbm=self.tx_power_dbm)
 
 
 def spoofer_serial(k: int) -> str:

@@ -98,7 +98,7 @@ def generate(base: Scenario, n_aircraft: int, seed: int, family: FamilyConfig) -
         raise ValueError(f"need at least one aircraft, got {n_aircraft}")
     draw = rng.stream(seed, "scenario")
     aircraft = tuple(_aircraft(k, draw, family) for k in range(n_aircraft))
-    wanted = family.adversaries
+    wanted = family.adversaries.resolved()
     name = f"family-n{n_aircraft}-s{seed}"
     if wanted.is_default:
         spoofer = _aimed_line(aircraft, seed, "scenario/spoofer", family)
