@@ -297,6 +297,12 @@ class TrackConfig:
     backfill_s: float = 10.0
     #: Delete the track (and clear the alert) when the transmitter is silent this long.
     silence_timeout_s: float = 10.0
+    #: Coast an alerted track through its transmitter's silence while its region's largest
+    #: semi-axis stays within this (m), past ``silence_timeout_s`` (a spoofer that stops
+    #: transmitting keeps flying: its predicted region, growing with the prediction's
+    #: covariance, stays for the planners); deleted once wider, or after 60 s of silence.
+    #: 0: delete at ``silence_timeout_s`` (the paper's pipeline).
+    coast_max_radius_m: float = 0.0
     #: RSSI_IMM: start the track only once the grid posterior's horizontal std is below this
     #: (m); 0 starts at once. Receivers clustered at depots can leave the spoofer anywhere
     #: along a curve; a region covering the whole area helps no planner.
@@ -313,6 +319,7 @@ class TrackConfig:
     def __post_init__(self) -> None:
         check_non_negative("backfill_s", self.backfill_s)
         check_non_negative("max_init_std_m", self.max_init_std_m)
+        check_non_negative("coast_max_radius_m", self.coast_max_radius_m)
         for name in (
             "silence_timeout_s",
             "altitude_prior_std_m",
