@@ -13,6 +13,14 @@ with several adversaries:
   never alerted left out; ``containment_rate_min`` the worst one; ``spoofers_alerted`` how many
   of ``spoofer_count`` were.
 
+When the lie can hurt: a planner that trusts Remote ID keeps ``d_safe_m`` (the planner's, 100 m)
+from where the RID says an aircraft is; the true aircraft is ``|lie|`` from there, so the
+trusting planner may come within ``d_safe_m - |lie|`` of it, an NMAC once that is under the
+NMAC radius: the lie can hurt once ``|lie| > harm_lie_m = d_safe_m - nmac_threshold_m`` (50 m).
+Per spoofer (truth channel: claimed vs true position): ``lie_at_alert_m``, ``harm_time_s`` (first
+time the lie exceeds ``harm_lie_m``; None: never) and ``alerted_before_harm``; the run's
+``spoofers_alerted_before_harm`` counts the spoofers whose lie never got there un-alerted.
+
 Always (also with one spoofer; so a run with ghosts compares with the same seed without):
 ``benign_path_length_m`` (sum over benign aircraft of the 3D length flown, truth samples) and
 ``mean_arrival_time_s`` (over the aircraft that arrived). With ghosts: ``ghosts_alerted``
@@ -28,20 +36,61 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ridsafe.common import topics
 from ridsafe.common.ellipsoid import mahalanobis2
 from ridsafe.tools.analysis.encounters import airborne, pair_entry_events
 from ridsafe.tools.analysis.run_arrays import RunLog
+from ridsafe.tools.runlog.reader import read_records
 
 FloatArray = NDArray[np.float64]
 Metrics = dict[str, float | int | None]
 
-__all__ = ["adversaries_of", "adversary_metrics", "per_adversary"]
+__all__ = ["DEFAULT_D_SAFE_M", "adversaries_of", "adversary_metrics", "harm_lie_m", "per_adversary"]
+
+#: The trusting planner's separation from a claimed position when the run does not say (m).
+DEFAULT_D_SAFE_M = 100.0
 
 
 def adversaries_of(run: RunLog) -> list[Mapping[str, Any]]:
     """``/run/meta``'s adversaries (empty for logs written before they were listed)."""
     items = run.meta.get("adversaries") or []
     return [a for a in items if isinstance(a, Mapping)]
+
+
+def harm_lie_m(run: RunLog) -> float:
+    """The lie beyond which a trusting planner could be steered into an NMAC (docstring)."""
+    planner = (run.meta.get("scenario") or {}).get("planner") or {}
+    d_safe = float(planner.get("d_safe_m", DEFAULT_D_SAFE_M))
+    return max(d_safe - run.nmac_threshold_m, 0.0)
+
+
+def _lies(run: RunLog) -> dict[str, tuple[FloatArray, FloatArray]]:
+    """serial -> (times, |claimed - true| m) from the truth channel's ``adversaries``."""
+    times: dict[str, list[float]] = {}
+    lies: dict[str, list[float]] = {}
+    for _topic, t_s, record in read_records(run.path, topics=(topics.TRUTH,)):
+        p = record.get("p_enu_m")
+        sysids = record.get("sysid") or []
+        for item in record.get("adversaries") or ():
+            if p is None or item.get("role") != "spoofer" or item["sysid"] not in sysids:
+                continue
+            true = np.asarray(p[sysids.index(item["sysid"])], dtype=np.float64)
+            lie = float(np.linalg.norm(np.asarray(item["claimed_p_enu_m"]) - true))
+            times.setdefault(item["serial"], []).append(t_s)
+            lies.setdefault(item["serial"], []).append(lie)
+    return {k: (np.array(times[k]), np.array(lies[k])) for k in times}
+
+
+def _harm(
+    t_s: FloatArray, lie_m: FloatArray, alert_s: float | None, limit_m: float
+) -> dict[str, Any]:
+    over = np.flatnonzero(lie_m > limit_m)
+    harm = float(t_s[over[0]]) if over.size else None
+    at_alert = None
+    if alert_s is not None and t_s.size:
+        at_alert = float(lie_m[max(int(np.searchsorted(t_s, alert_s, side="right")) - 1, 0)])
+    before = harm is None or (alert_s is not None and alert_s <= harm)
+    return {"lie_at_alert_m": at_alert, "harm_time_s": harm, "alerted_before_harm": before}
 
 
 def _alert_s(run: RunLog, serial: str) -> float | None:
@@ -88,6 +137,8 @@ def per_adversary(run: RunLog, min_height_m: float) -> list[dict[str, Any]]:
         [c for c in (truth.column(s) for s in run.benign_sysids) if c is not None], dtype=np.int64
     )
     flying = airborne(truth.p_enu_m, truth.armed, min_height_m)
+    lies = _lies(run) if run.path.exists() else {}
+    limit_m = harm_lie_m(run)
     rows: list[dict[str, Any]] = []
     for adversary in adversaries_of(run):
         serial, role = str(adversary["serial"]), str(adversary.get("role"))
@@ -104,6 +155,8 @@ def per_adversary(run: RunLog, min_height_m: float) -> list[dict[str, Any]]:
             since = alert if alert is not None else np.inf
             row["containment_rate"] = _containment(run, serial, column, since)
             row["rmse_m"] = _rmse(run, serial, column, since)
+            if serial in lies:
+                row.update(_harm(*lies[serial], alert, limit_m))
         elif column is not None:
             transmitter = np.asarray(adversary.get("transmitter_enu_m"), dtype=np.float64)
             row["region_containment"] = _containment(run, serial, column, -np.inf, transmitter)
@@ -139,9 +192,15 @@ def adversary_metrics(
     listed = adversaries_of(run)
     spoofers = [a for a in listed if a.get("role") == "spoofer"]
     ghosts = [a for a in listed if a.get("role") == "ghost"]
-    if len(spoofers) <= 1 and not ghosts:
+    if not listed:
         return out
     rows = per_adversary(run, min_height_m)
+    out["spoofers_alerted_before_harm"] = sum(
+        1 for r in rows if r["role"] == "spoofer" and r.get("alerted_before_harm")
+    )
+    out["lie_at_alert_m"] = _mean([r.get("lie_at_alert_m") for r in rows if r["role"] == "spoofer"])
+    if len(spoofers) <= 1 and not ghosts:
+        return out
     spoofer_rows = [r for r in rows if r["role"] == "spoofer"]
     ghost_rows = [r for r in rows if r["role"] == "ghost"]
     serials = {str(a["serial"]) for a in listed}

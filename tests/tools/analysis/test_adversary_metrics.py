@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from ridsafe.common.config import load_config
-from ridsafe.tools.analysis.adversary_metrics import per_adversary
+from ridsafe.tools.analysis.adversary_metrics import harm_lie_m, per_adversary
 from ridsafe.tools.analysis.metrics import compute_metrics
 from ridsafe.tools.analysis.run_arrays import load_run
 from ridsafe.tools.run.lockstep import run_lockstep
@@ -51,3 +51,17 @@ def test_every_adversary_has_a_row_and_the_totals_add_up(example_run: Path) -> N
     if known:
         assert metrics["containment_rate"] == pytest.approx(float(np.mean(known)))
     assert metrics["benign_path_length_m"] is not None and metrics["benign_path_length_m"] > 100.0
+
+
+def test_the_drifting_spoofers_lie_is_measured_against_the_harm_distance(example_run: Path) -> None:
+    """Spoofer 2 drifts at 2 m/s from 5 s: its lie passes harm_lie_m (100 - 50 m) at 30 s, so
+    within the 20 s run it never can hurt; the offset spoofer lies 70.7 m from the start."""
+    run = load_run(example_run)
+    assert harm_lie_m(run) == 50.0
+    rows = {r["serial"]: r for r in per_adversary(run, 1.0)}
+    assert rows["RSAF800000667"]["harm_time_s"] is None
+    assert rows["RSAF800000667"]["alerted_before_harm"]
+    offset = rows["RSAF800000666"]
+    assert offset["harm_time_s"] == pytest.approx(0.0, abs=0.11)
+    if offset["alert_time_s"] is not None:
+        assert offset["lie_at_alert_m"] == pytest.approx(70.71, abs=0.01)
