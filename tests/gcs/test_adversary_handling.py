@@ -59,7 +59,7 @@ def _claim(t: float, rx: np.ndarray, rssi: np.ndarray) -> ObservedClaim:
 def test_the_track_start_profiles_one_power_per_message() -> None:
     """Receivers moving between messages (with one set, a per-message power only adds a
     constant to the pooled cost); the powers are 8 dB apart on average."""
-    errors = {True: [], False: []}
+    errors: dict[bool, list[float]] = {True: [], False: []}
     for seed in range(10):
         rng = np.random.default_rng(seed)
         claims = []

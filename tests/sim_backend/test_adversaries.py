@@ -9,7 +9,9 @@ definitions evaluated by hand at the logged times, the radio's RSSI residual aga
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -31,8 +33,8 @@ class _Records(LogSink):
     def __init__(self) -> None:
         self.records: list[tuple[str, float, dict[str, object]]] = []
 
-    def log(self, topic: str, t_s: float, record: dict[str, object]) -> None:
-        self.records.append((topic, t_s, record))
+    def log(self, topic: str, t_s: float, record: Mapping[str, Any]) -> None:
+        self.records.append((topic, t_s, dict(record)))
 
 
 @pytest.fixture(scope="module")

@@ -21,7 +21,8 @@ Per spoofer (truth channel: claimed vs true position): ``lie_at_alert_m``, ``har
 time the lie exceeds ``harm_lie_m``; None: never) and ``alerted_before_harm``; the run's
 ``spoofers_alerted_before_harm`` counts the spoofers whose lie never got there un-alerted.
 
-Always (also with one spoofer; so a run with ghosts compares with the same seed without):
+Whenever the run lists adversaries (also one spoofer; so a run with ghosts compares with the
+same seed without):
 ``benign_path_length_m`` (sum over benign aircraft of the 3D length flown, truth samples) and
 ``mean_arrival_time_s`` (over the aircraft that arrived). With ghosts: ``ghosts_alerted``
 (ghosts with a raised alert) and ``ghost_region_containment`` (fraction of the ghosts'
@@ -187,13 +188,13 @@ def adversary_metrics(
     run: RunLog, min_height_m: float, arrivals_s: Mapping[int, float | None]
 ) -> Metrics:
     """The keys of the module docstring (``arrivals_s``: ``metrics.arrival_times_s``)."""
+    listed = adversaries_of(run)
+    if not listed:  # no adversary (or a log from before they were listed): no extra key
+        return {}
     path, arrival = _path_and_arrival(run, arrivals_s)
     out: Metrics = {"benign_path_length_m": path, "mean_arrival_time_s": arrival}
-    listed = adversaries_of(run)
     spoofers = [a for a in listed if a.get("role") == "spoofer"]
     ghosts = [a for a in listed if a.get("role") == "ghost"]
-    if not listed:
-        return out
     rows = per_adversary(run, min_height_m)
     out["spoofers_alerted_before_harm"] = sum(
         1 for r in rows if r["role"] == "spoofer" and r.get("alerted_before_harm")

@@ -11,13 +11,17 @@ import pytest
 from ridsafe.common.errors import ConfigError
 from ridsafe.tools.cli import run_cmd
 from ridsafe.tools.run.family_adversaries import AdversaryDraw
-from ridsafe.tools.run.scenario import check_no_drawn_overrides, load_scenario_file
+from ridsafe.tools.run.scenario import (
+    ScenarioFile,
+    check_no_drawn_overrides,
+    load_scenario_file,
+)
 from ridsafe.tools.run.scenario_family import FamilyConfig, generate
 
 BASE = load_scenario_file().scenario
 
 
-def _effective(*argv: str) -> run_cmd.ScenarioFile:
+def _effective(*argv: str) -> ScenarioFile:
     parser = argparse.ArgumentParser()
     run_cmd.register(parser.add_subparsers())
     return run_cmd.effective_scenario(parser.parse_args(["run", *argv]))
