@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from collections.abc import Callable, Sequence
 
 from ridsafe.common.errors import FieldValueError
@@ -19,6 +20,7 @@ from ridsafe.common.errors import FieldValueError
 __all__ = [
     "check_at_least",
     "check_covariance_diagonal",
+    "check_cta2063_serial",
     "check_finite",
     "check_finite_vector",
     "check_in_interval",
@@ -128,3 +130,19 @@ def check_covariance_diagonal(
         if not math.isfinite(v) or v < 0.0 or (strictly_positive and v == 0.0):
             bound = "> 0" if strictly_positive else ">= 0"
             raise FieldValueError(f"{name}[{i}]", f"covariance diagonal must be {bound}, got {v}")
+
+
+# CTA-2063-A serial number: 4-character manufacturer code, one length character
+# ('1'-'9', 'A'-'F' for 1-15) and the manufacturer's serial of that length. Digits and
+# upper-case letters except O and I.
+_CTA_CHARS = "0123456789ABCDEFGHJKLMNPQRSTUVWXYZ"
+_CTA_RE = re.compile(rf"^[{_CTA_CHARS}]{{4}}[1-9A-F][{_CTA_CHARS}]{{1,15}}$")
+
+
+def check_cta2063_serial(field: str, number: str) -> None:
+    if not _CTA_RE.match(number) or int(number[4], 16) != len(number) - 5:
+        raise FieldValueError(
+            field,
+            f"expected a CTA-2063-A serial (4-char maker code, length char, serial), "
+            f"got {number!r}",
+        )

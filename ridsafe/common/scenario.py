@@ -1,4 +1,5 @@
-"""The world every app of one scenario agrees on: origin, clock epoch, aircraft, spoofer, radio.
+"""The world every app of one scenario agrees on: origin, clock epoch, aircraft, adversaries,
+radio (the adversaries' configs: ``ridsafe.common.adversary``).
 
 Positions are metres in the scenario's local ENU frame about ``origin`` (x east, y north,
 z up above the origin's ellipsoid height). App-specific settings (the sim's rates and
@@ -8,21 +9,28 @@ ports, the GCS's filters, the planner's rewards) live in each app's own config s
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 from typing import Literal
 
-from ridsafe.common.checks import check_finite_vector
+from ridsafe.common.adversary import GhostConfig, SpooferConfig
+from ridsafe.common.checks import check_cta2063_serial, check_finite_vector
 from ridsafe.common.errors import FieldValueError
 from ridsafe.common.frames import GeodeticOrigin
 
+__all__ = [
+    "AREA_LIMIT_M",
+    "AircraftConfig",
+    "GhostConfig",
+    "RadioConfig",
+    "Scenario",
+    "SpooferConfig",
+    "Vec3",
+    "check_cta2063_serial",
+    "cta2063_serial",
+]
+
 Vec3 = tuple[float, float, float]
 
-# CTA-2063-A serial number: 4-character manufacturer code, one length character
-# ('1'-'9', 'A'-'F' for 1-15) and the manufacturer's serial of that length. Digits and
-# upper-case letters except O and I.
-_CTA_CHARS = "0123456789ABCDEFGHJKLMNPQRSTUVWXYZ"
-_CTA_RE = re.compile(rf"^[{_CTA_CHARS}]{{4}}[1-9A-F][{_CTA_CHARS}]{{1,15}}$")
 AREA_LIMIT_M = 100_000.0
 
 
@@ -31,15 +39,6 @@ def cta2063_serial(manufacturer_code: str, serial: str) -> str:
     number = f"{manufacturer_code}{len(serial):X}{serial}"
     check_cta2063_serial("serial", number)
     return number
-
-
-def check_cta2063_serial(field: str, number: str) -> None:
-    if not _CTA_RE.match(number) or int(number[4], 16) != len(number) - 5:
-        raise FieldValueError(
-            field,
-            f"expected a CTA-2063-A serial (4-char maker code, length char, serial), "
-            f"got {number!r}",
-        )
 
 
 @dataclass(frozen=True)
@@ -66,29 +65,6 @@ class AircraftConfig:
                 )
         if not 5.0 <= self.cruise_alt_m <= 500.0:
             raise FieldValueError("cruise_alt_m", f"expected 5..500 m, got {self.cruise_alt_m}")
-
-
-@dataclass(frozen=True)
-class SpooferConfig:
-    """The spoofer: flies a straight line at constant speed, avoids nobody, and broadcasts
-    its true position plus a constant offset."""
-
-    serial: str
-    start_enu_m: Vec3
-    goal_enu_m: Vec3
-    speed_m_s: float = 7.0
-    offset_enu_m: Vec3 = (50.0, 50.0, 0.0)
-    tx_power_dbm: float | None = None
-
-    def __post_init__(self) -> None:
-        check_cta2063_serial("serial", self.serial)
-        check_finite_vector("start_enu_m", self.start_enu_m, AREA_LIMIT_M, " m")
-        check_finite_vector("goal_enu_m", self.goal_enu_m, AREA_LIMIT_M, " m")
-        check_finite_vector("offset_enu_m", self.offset_enu_m, 10_000.0, " m")
-        if not 0.0 < self.speed_m_s <= 8.0:
-            raise FieldValueError("speed_m_s", f"expected 0 < speed <= 8 m/s, got {self.speed_m_s}")
-        if self.start_enu_m[2] < 5.0:
-            raise FieldValueError("start_enu_m[2]", "the spoofer starts airborne: z >= 5 m")
 
 
 @dataclass(frozen=True)
@@ -170,7 +146,11 @@ class RadioConfig:
 
 @dataclass(frozen=True)
 class Scenario:
-    """What every app of one run agrees on."""
+    """What every app of one run agrees on.
+
+    ``spoofer`` is the shorthand for ``spoofers`` with one entry (give one or the other);
+    ``adversaries`` lists them all. System ids: benign aircraft 1..N, then the spoofers, then
+    the ghosts (each ghost's transmitter is a vehicle of the sim that holds its position)."""
 
     origin: GeodeticOrigin
     aircraft: tuple[AircraftConfig, ...]
@@ -181,18 +161,33 @@ class Scenario:
     duration_s: float = 120.0
     # UNIX time at sim time 0 (RID timestamps, SYSTEM_TIME): fixed so runs are reproducible.
     start_unix_s: float = 1_767_268_800.0  # 2026-01-01T12:00:00Z
+    spoofers: tuple[SpooferConfig, ...] = ()
+    ghosts: tuple[GhostConfig, ...] = ()
 
     def __post_init__(self) -> None:
         if not self.aircraft:
             raise FieldValueError("aircraft", "expected at least one aircraft, got none")
+        if self.spoofer is not None and self.spoofers:
+            raise FieldValueError("spoofers", "give spoofer (one) or spoofers (a list), not both")
         serials = [a.serial for a in self.aircraft]
-        if self.spoofer is not None:
-            serials.append(self.spoofer.serial)
+        serials += [s.serial for s in self.all_spoofers] + [g.serial for g in self.ghosts]
         duplicates = sorted({s for s in serials if serials.count(s) > 1})
         if duplicates:
             raise FieldValueError(
                 "aircraft", f"serial numbers must be unique, repeated: {duplicates}"
             )
+        benign = {a.serial for a in self.aircraft}
+        for k, spoofer in enumerate(self.spoofers or ((self.spoofer,) if self.spoofer else ())):
+            field = f"spoofers[{k}]" if self.spoofers else "spoofer"
+            for part, target in (
+                ("motion", spoofer.resolved_motion.target_serial),
+                ("claim", spoofer.resolved_claim.target_serial),
+            ):
+                if target is not None and target not in benign:
+                    raise FieldValueError(
+                        f"{field}.{part}.target_serial",
+                        f"{target!r} is not a benign aircraft of the scenario",
+                    )
         if not 0.0 < self.duration_s <= 86_400.0:
             raise FieldValueError(
                 "duration_s", f"expected 0 < duration <= 86400, got {self.duration_s}"
@@ -201,22 +196,45 @@ class Scenario:
             raise FieldValueError("seed", f"expected a non-negative seed, got {self.seed}")
 
     @property
+    def all_spoofers(self) -> tuple[SpooferConfig, ...]:
+        """``spoofers``, or the one ``spoofer`` shorthand."""
+        if self.spoofer is not None:
+            return (self.spoofer,)
+        return self.spoofers
+
+    @property
+    def first_spoofer_sysid(self) -> int:
+        return len(self.aircraft) + 1
+
+    @property
+    def first_ghost_sysid(self) -> int:
+        return len(self.aircraft) + len(self.all_spoofers) + 1
+
+    @property
     def vehicle_count(self) -> int:
-        """Benign aircraft are vehicles 1..N, the spoofer (if any) is vehicle N + 1."""
-        return len(self.aircraft) + (0 if self.spoofer is None else 1)
+        """Benign aircraft 1..N, spoofers N+1..N+S, ghost transmitters after them."""
+        return len(self.aircraft) + len(self.all_spoofers) + len(self.ghosts)
 
     def serial_of(self, sysid: int) -> str:
-        if 1 <= sysid <= len(self.aircraft):
-            return self.aircraft[sysid - 1].serial
-        if self.spoofer is not None and sysid == len(self.aircraft) + 1:
-            return self.spoofer.serial
-        raise KeyError(f"no vehicle with system id {sysid} (have 1..{self.vehicle_count})")
+        return self._adversary_or_aircraft(sysid).serial
 
     def tx_power_dbm_of(self, sysid: int) -> float:
-        if 1 <= sysid <= len(self.aircraft):
-            own = self.aircraft[sysid - 1].tx_power_dbm
-        elif self.spoofer is not None and sysid == len(self.aircraft) + 1:
-            own = self.spoofer.tx_power_dbm
+        """The transmit power of vehicle ``sysid`` (the mean power of a random one)."""
+        entry = self._adversary_or_aircraft(sysid)
+        if isinstance(entry, AircraftConfig):
+            own = entry.tx_power_dbm
+        elif entry.tx_power is not None:
+            own = entry.tx_power.mean_power_dbm
         else:
-            raise KeyError(f"no vehicle with system id {sysid}")
+            own = entry.tx_power_dbm if isinstance(entry, SpooferConfig) else None
         return self.radio.tx_power_dbm if own is None else own
+
+    def _adversary_or_aircraft(self, sysid: int) -> AircraftConfig | SpooferConfig | GhostConfig:
+        n, spoofers = len(self.aircraft), self.all_spoofers
+        if 1 <= sysid <= n:
+            return self.aircraft[sysid - 1]
+        if n < sysid <= n + len(spoofers):
+            return spoofers[sysid - n - 1]
+        if n + len(spoofers) < sysid <= self.vehicle_count:
+            return self.ghosts[sysid - n - len(spoofers) - 1]
+        raise KeyError(f"no vehicle with system id {sysid} (have 1..{self.vehicle_count})")

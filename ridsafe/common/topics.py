@@ -41,7 +41,8 @@ TOPICS: dict[str, tuple[str, dict[str, str]]] = {
             "planner": "planner name",
             "scenario": "the whole scenario file as plain data (config.to_mapping)",
             "aircraft": "[{sysid, serial, start_enu_m, goal_enu_m, cruise_alt_m}] benign only",
-            "spoofer": "{sysid, serial, offset_enu_m} or null",
+            "spoofer": "{sysid, serial, offset_enu_m} of the first spoofer, or null",
+            "adversaries": "[{sysid, serial, role: spoofer|ghost, claim, tx_power, ...}]",
             "nmac_threshold_m": "50.0",
         },
     ),
@@ -64,6 +65,8 @@ TOPICS: dict[str, tuple[str, dict[str, str]]] = {
             "mode": "[N] ArduCopter custom modes",
             "spoofer_sysid": "system id of the spoofer or null",
             "spoofer_claimed_p_enu_m": "[3] where the spoofer's RID says it is, or null",
+            "adversaries": "[{sysid, serial, role, claimed_p_enu_m, claimed_v_enu_m_s, silent, "
+            "tx_power_dbm}] every spoofer and ghost (its true state: p_enu_m at its sysid)",
         },
     ),
     RADIO_TX: (

@@ -21,7 +21,9 @@ since the last cycle, and answers what it decided. Each cycle:
 3. every alerted uas_id without a track gets one from its recent claims;
 4. a track whose transmitter was silent ``silence_timeout_s`` is deleted and its alert
    CLEARED (an alert latches while the transmitter is heard: a spoofer that turns honest
-   keeps its region until it goes quiet; after a clear, new evidence raises it again);
+   keeps its region until it goes quiet; after a clear, new evidence raises it again); with
+   ``tracks.coast_max_radius_m`` > 0 it coasts on, its prediction's covariance growing, until
+   its region is wider than that;
 5. every live track is predicted to ``now_s`` -> ``TrackEstimate`` and ``UnsafeRegion`` (as
    ``region/publishing.py`` publishes it: the estimate itself unless configured).
 
@@ -258,7 +260,7 @@ class EstimationPipeline:
         for uas_id, alert in list(self._alerts.items()):
             heard = self._heard.get(uas_id)
             last = max(alert.raised_s, heard.last_heard_s if heard else -float("inf"))
-            if now_s - last <= timeout:
+            if now_s - last <= timeout or self._coasting(uas_id, now_s, now_s - last):
                 continue
             del self._alerts[uas_id]
             cleared.append(AlertChange(uas_id, alert.detector, 0.0, 0.0, AlertState.CLEARED))
@@ -270,6 +272,22 @@ class EstimationPipeline:
             if now_s - heard.last_heard_s > FORGET_AFTER_S and uas_id not in self._alerts:
                 del self._heard[uas_id]
         return deleted, cleared
+
+    def _coasting(self, uas_id: str, now_s: float, silent_s: float) -> bool:
+        """Keep a silent alerted track while its region is narrow enough (``tracks.
+        coast_max_radius_m``; 0: never past ``silence_timeout_s``)."""
+        limit_m = self.config.tracks.coast_max_radius_m
+        track = self._tracks.get(uas_id)
+        if limit_m <= 0.0 or track is None or silent_s > FORGET_AFTER_S:
+            return False
+        est = track.estimate(now_s)
+        if not finite(est):
+            return False
+        region = make_region(
+            uas_id, est.track_id, now_s, est.p_enu_m, est.cov_enu_m2, est.v_enu_m_s,
+            self.config.region,
+        )  # fmt: skip
+        return float(np.max(region.semi_axes_m)) <= limit_m
 
     def _outputs(
         self,

@@ -278,6 +278,14 @@ class RssiFilterConfig:
     #: Split a hypothesis before an update whose curvature over it exceeds this (dB).
     split_nonlinearity_db: float = 0.5
     max_hypotheses: int = 6
+    #: Transmit power that changes every message (``localisation/power_jitter.py``): 'off'
+    #: (the paper's assumption: one power per transmitter, a slow random walk) or 'adaptive'
+    #: (the per-message variance estimated per track and added before each update, the track
+    #: start profiling one power per message).
+    tx_power_jitter: Literal["off", "adaptive"] = "off"
+    #: 'adaptive': the estimate counts once above this (dB), and weighs the newest message so.
+    tx_power_jitter_threshold_db: float = 2.0
+    tx_power_jitter_forgetting: float = 0.2
 
     def __post_init__(self) -> None:
         for name in ("q_cv_accel_m2_s3", "q_ca_jerk_m2_s5", "lift_accel_var_m2_s4"):
@@ -293,6 +301,12 @@ class RssiFilterConfig:
         if self.max_iterations < 1:
             raise FieldValueError("max_iterations", f"expected >= 1, got {self.max_iterations}")
         check_positive("step_tol_m", self.step_tol_m)
+        check_non_negative("tx_power_jitter_threshold_db", self.tx_power_jitter_threshold_db)
+        if not 0.0 < self.tx_power_jitter_forgetting <= 1.0:
+            raise FieldValueError(
+                "tx_power_jitter_forgetting",
+                f"expected 0 < w <= 1, got {self.tx_power_jitter_forgetting}",
+            )
         check_positive("reception_gate_sigma", self.reception_gate_sigma)
         check_non_negative("rx_position_sigma_m", self.rx_position_sigma_m)
         self._check_sum()
@@ -330,6 +344,12 @@ class TrackConfig:
     backfill_s: float = 10.0
     #: Delete the track (and clear the alert) when the transmitter is silent this long.
     silence_timeout_s: float = 10.0
+    #: Coast an alerted track through its transmitter's silence while its region's largest
+    #: semi-axis stays within this (m), past ``silence_timeout_s`` (a spoofer that stops
+    #: transmitting keeps flying: its predicted region, growing with the prediction's
+    #: covariance, stays for the planners); deleted once wider, or after 60 s of silence.
+    #: 0: delete at ``silence_timeout_s`` (the paper's pipeline).
+    coast_max_radius_m: float = 0.0
     #: RSSI_IMM: start the track only once the grid posterior's horizontal std is below this
     #: (m); 0 starts at once. Receivers clustered at depots can leave the spoofer anywhere
     #: along a curve; a region covering the whole area helps no planner.
@@ -346,6 +366,7 @@ class TrackConfig:
     def __post_init__(self) -> None:
         check_non_negative("backfill_s", self.backfill_s)
         check_non_negative("max_init_std_m", self.max_init_std_m)
+        check_non_negative("coast_max_radius_m", self.coast_max_radius_m)
         for name in (
             "silence_timeout_s",
             "altitude_prior_std_m",

@@ -1,25 +1,31 @@
-"""The spoofer: a vehicle that flies a straight line at constant speed and lies on Remote ID.
+"""A spoofer's (or ghost's) Remote ID broadcaster, and the straight-line mission.
 
-Its autopilot flies ``StraightLineMission`` in AUTO mode (it avoids nobody); its broadcaster
-claims its true state plus a constant ENU offset:
+The default spoofer's autopilot flies ``StraightLineMission`` in AUTO mode (it avoids nobody);
+its broadcaster claims its true state plus a constant ENU offset:
 
     claimed_p_enu(t) = p_enu(t) + offset_enu,      claimed_v = v (its true velocity)
 
 at the cadence of an honest aircraft (LOCATION every 1 s, BASIC_ID / SYSTEM / OPERATOR_ID
-every 3 s), so only the physics of the radio can give it away.
+every 3 s), so only the physics of the radio can give it away. Other claims (drift, mimic,
+fixed, a made-up path: ``ridsafe.sim_backend.adversary_claim``) plug in as ``claim``, a
+function ``(now_s, p, v) -> (claimed p, claimed v)``; in ``silent_intervals_s`` it sends
+nothing (its slots pass unused).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ridsafe.common import frames, rid
 from ridsafe.common import messages as m
+from ridsafe.common.adversary import silent_at
 
 FloatArray = NDArray[np.float64]
+ClaimFunction = Callable[[float, FloatArray, FloatArray], tuple[FloatArray, FloatArray]]
 
 
 class StraightLineMission:
@@ -57,8 +63,12 @@ class SpooferBroadcaster:
         start_unix_s: float,
         ground_enu_m: ArrayLike,
         phase_s: float = 0.0,
+        claim: ClaimFunction | None = None,
+        silent_intervals_s: tuple[tuple[float, float], ...] = (),
     ) -> None:
         self.serial = serial
+        self.claim = claim
+        self.silent_intervals_s = silent_intervals_s
         self.offset_enu_m = np.asarray(offset_enu_m, dtype=np.float64)
         self.origin = origin
         self.start_unix_s = start_unix_s
@@ -73,10 +83,28 @@ class SpooferBroadcaster:
         claimed: FloatArray = p_enu_m + self.offset_enu_m
         return claimed
 
+    def claimed_state(
+        self, now_s: float, p_enu_m: FloatArray, v_enu_m_s: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """What the RID says at ``now_s`` given the true state: (position, velocity) ENU."""
+        if self.claim is None:
+            return self.claimed_p_enu_m(p_enu_m), v_enu_m_s
+        return self.claim(now_s, p_enu_m, v_enu_m_s)
+
     def due(self, now_s: float, p_enu_m: FloatArray, v_enu_m_s: FloatArray) -> list[m.Message]:
         """The messages to hand to the spoofer's transponder at ``now_s``."""
         out: list[m.Message] = []
         unix_s = self.start_unix_s + now_s
+        if self.silent_intervals_s and silent_at(self.silent_intervals_s, now_s):
+            if now_s >= self._next_static_s - 1e-9:
+                self._next_static_s = _next_slot(
+                    self._next_static_s, now_s, rid.RID_STATIC_PERIOD_S
+                )
+            if now_s >= self._next_location_s - 1e-9:
+                self._next_location_s = _next_slot(
+                    self._next_location_s, now_s, rid.RID_LOCATION_PERIOD_S
+                )
+            return out
         if now_s >= self._next_static_s - 1e-9:
             self._next_static_s = _next_slot(self._next_static_s, now_s, rid.RID_STATIC_PERIOD_S)
             out.append(rid.basic_id(self.serial))
@@ -86,13 +114,17 @@ class SpooferBroadcaster:
             self._next_location_s = _next_slot(
                 self._next_location_s, now_s, rid.RID_LOCATION_PERIOD_S
             )
-            out.append(rid.location(self._own_state(unix_s, p_enu_m, v_enu_m_s)))
+            out.append(rid.location(self._own_state(now_s, unix_s, p_enu_m, v_enu_m_s)))
         return out
 
-    def _own_state(self, unix_s: float, p_enu_m: FloatArray, v_enu_m_s: FloatArray) -> rid.OwnState:
-        claimed = self.claimed_p_enu_m(p_enu_m)
+    def _own_state(
+        self, now_s: float, unix_s: float, p_enu_m: FloatArray, v_enu_m_s: FloatArray
+    ) -> rid.OwnState:
+        claimed, claimed_v = self.claimed_state(now_s, p_enu_m, v_enu_m_s)
         lat, lon, alt = frames.enu_to_geodetic(self.origin, claimed)
-        v_ned = frames.enu_to_ned(v_enu_m_s)
+        v_ned = frames.enu_to_ned(claimed_v)
+        # The offset spoofer reports its true airborne state; other claims their own.
+        moving, moving_v = (p_enu_m, v_enu_m_s) if self.claim is None else (claimed, claimed_v)
         return rid.OwnState(
             unix_s=unix_s,
             lat_deg=float(lat),
@@ -100,7 +132,7 @@ class SpooferBroadcaster:
             alt_geodetic_m=float(alt),
             height_m=float(claimed[2] - self._ground_z_m),
             v_ned_m_s=(float(v_ned[0]), float(v_ned[1]), float(v_ned[2])),
-            airborne=bool(p_enu_m[2] - self._ground_z_m > 0.5 or math.hypot(*v_enu_m_s) > 0.2),
+            airborne=bool(moving[2] - self._ground_z_m > 0.5 or math.hypot(*moving_v) > 0.2),
         )
 
 

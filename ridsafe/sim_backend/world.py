@@ -1,8 +1,9 @@
 """The sim backend core, sans I/O: ``handle(now_s, inbound) -> outbound``.
 
-One ``SimBackend`` holds every vehicle of a scenario (benign aircraft 1..N, the spoofer
-N + 1), each with an ArduCopter-like autopilot and a Remote ID transponder, and the radio
-channel between the transponders. It speaks MAVLink bytes on named endpoints:
+One ``SimBackend`` holds every vehicle of a scenario (benign aircraft 1..N, the spoofers
+N + 1.., then the ghosts' transmitters: ``ridsafe.sim_backend.adversaries``), each with
+an ArduCopter-like autopilot and a Remote ID transponder, and the radio channel between
+the transponders. It speaks MAVLink bytes on named endpoints:
 
 - ``v{i}/companion``: vehicle i's companion-computer link (autopilot compid 1 and
   transponder compid 236 share it);
@@ -14,7 +15,7 @@ A runner (UDP, lockstep) maps endpoint names to sockets or to in-memory peers. E
    RID messages, and the ground-station protocols (parameters, missions, data streams,
    TIMESYNC: :mod:`.link_protocols`, one ``LinkResponder`` per endpoint);
 2. advance physics and controllers of all vehicles to ``now_s`` (one compiled call);
-3. run every autopilot's mode logic; let the spoofer broadcast;
+3. run every autopilot's mode logic; let the spoofers and ghosts broadcast;
 4. carry this tick's RID frames over the radio to the other transponders;
 5. emit due telemetry, heartbeats, STATUSTEXTs; return bytes per endpoint.
 """
@@ -45,6 +46,7 @@ from ridsafe.common.shell import (
     link_counter_values,
 )
 from ridsafe.sim_backend import telemetry
+from ridsafe.sim_backend.adversaries import Adversaries
 from ridsafe.sim_backend.autopilot import (
     Autopilot,
     CommandContext,
@@ -55,7 +57,6 @@ from ridsafe.sim_backend.config import SimConfig
 from ridsafe.sim_backend.dynamics import EULER, IDX_PSI, POS_ENU, STATE_SIZE, VEL_ENU
 from ridsafe.sim_backend.link_protocols import LINK_MESSAGES, LinkResponder, timesync_answer
 from ridsafe.sim_backend.radio import RadioChannel, Reception, Transmission
-from ridsafe.sim_backend.spoofer import SpooferBroadcaster, StraightLineMission
 from ridsafe.sim_backend.telemetry import FleetSnapshot, TelemetrySchedule
 from ridsafe.sim_backend.transponder import STATIC_PERIOD_S, TRANSPONDER_COMPONENT, Transponder
 from ridsafe.sim_backend.vehicles import OctorotorFleet
@@ -118,7 +119,7 @@ class Truth:
     euler_rad: FloatArray  # (N, 3) phi, theta, psi
     armed: NDArray[np.bool_]  # (N,)
     modes: tuple[int, ...]
-    spoofer_claimed_p_enu_m: FloatArray | None  # (3,)
+    spoofer_claimed_p_enu_m: FloatArray | None  # (3,) the first spoofer's
 
 
 class SimBackend:
@@ -138,6 +139,7 @@ class SimBackend:
         self.counters = BackendCounters()
         self.n_vehicles = scenario.vehicle_count
         self.t_s = 0.0
+        self.adversaries = Adversaries(scenario, lambda i: self.fleet.state_of(i)[POS_ENU])
         self.fleet = OctorotorFleet(
             self.n_vehicles, self.config.vehicle, self.config.controller, self._initial_state()
         )
@@ -160,8 +162,8 @@ class SimBackend:
             [scenario.tx_power_dbm_of(i + 1) for i in range(self.n_vehicles)],
             rng.stream(scenario.seed, "sim/radio"),
         )
-        self.spoofer_index = len(scenario.aircraft) if scenario.spoofer is not None else None
-        self.spoofer_broadcaster = self._make_spoofer_broadcaster()
+        spoofers = [a for a in self.adversaries.items if a.role == "spoofer"]
+        self.spoofer_index = spoofers[0].index if spoofers else None  # the first spoofer
         self.shell = AppShell("sim")
         self.endpoints = {
             endpoint_name(i + 1, kind): self._make_port(i + 1, kind)
@@ -172,8 +174,9 @@ class SimBackend:
         self.last_receptions: list[Reception] = []
         self._pending_air: list[Transmission] = []
         self._next_periodic_s = 0.0
-        if self.spoofer_index is not None:
-            self._launch_spoofer(self.spoofer_index)
+        for adversary in self.adversaries.items:
+            if adversary.airborne:
+                self._launch_spoofer(adversary.index)
 
     # -- construction ---------------------------------------------------------------------
 
@@ -182,24 +185,18 @@ class SimBackend:
         for i, aircraft in enumerate(self.scenario.aircraft):
             state[i, POS_ENU] = (aircraft.start_enu_m[0], aircraft.start_enu_m[1], 0.0)
             state[i, IDX_PSI] = math.pi / 2  # facing north
-        spoofer = self.scenario.spoofer
-        if spoofer is not None:
-            i = len(self.scenario.aircraft)
-            state[i, POS_ENU] = spoofer.start_enu_m
-            delta = np.subtract(spoofer.goal_enu_m, spoofer.start_enu_m)
-            norm = float(np.linalg.norm(delta))
-            if norm > 0:
-                state[i, VEL_ENU] = spoofer.speed_m_s * delta / norm
-            state[i, IDX_PSI] = math.atan2(delta[1], delta[0])
+        for adversary in self.adversaries.items:
+            i = adversary.index
+            state[i, POS_ENU], state[i, VEL_ENU], state[i, IDX_PSI] = (
+                self.adversaries.initial_state(i)
+            )
         return state
 
     def _make_autopilot(self, i: int) -> Autopilot:
         mission = None
-        spoofer = self.scenario.spoofer
-        if spoofer is not None and i == len(self.scenario.aircraft):
-            mission = StraightLineMission(
-                spoofer.start_enu_m, spoofer.goal_enu_m, spoofer.speed_m_s
-            )
+        adversary = self.adversaries.by_index.get(i)
+        if adversary is not None and adversary.airborne:
+            mission = self.adversaries.mission(i)
         return Autopilot(
             sysid=i + 1,
             vehicle=i,
@@ -208,21 +205,6 @@ class SimBackend:
             config=self.config.autopilot,
             mission=mission,
             remote_id_error=self.transponders[i].ready_error,
-        )
-
-    def _make_spoofer_broadcaster(self) -> SpooferBroadcaster | None:
-        spoofer = self.scenario.spoofer
-        if spoofer is None:
-            return None
-        ground = (spoofer.start_enu_m[0], spoofer.start_enu_m[1], 0.0)
-        phase = float(rng.stream(self.scenario.seed, "sim/spoofer").uniform(0.0, 1.0))
-        return SpooferBroadcaster(
-            spoofer.serial,
-            spoofer.offset_enu_m,
-            self.scenario.origin,
-            self.scenario.start_unix_s,
-            ground,
-            phase_s=phase,
         )
 
     def _make_port(self, sysid: int, kind: EndpointKind) -> _Port:
@@ -242,7 +224,8 @@ class SimBackend:
         return _Port(endpoint, sysid, kind, schedule, LinkResponder(sysid, serial))
 
     def _launch_spoofer(self, i: int) -> None:
-        """The spoofer starts airborne, armed, flying its line in AUTO."""
+        """A spoofer (or a hovering ghost transmitter) starts airborne, armed, flying its
+        mission in AUTO."""
         autopilot = self.autopilots[i]
         self.fleet.arm(i)
         autopilot.armed = True
@@ -272,6 +255,9 @@ class SimBackend:
             autopilot.update(now_s, sample)
             for event in autopilot.take_events():
                 self.sink.log(topics.SIM_EVENTS, now_s, event)
+        if self.adversaries.histories:
+            state = self.fleet.state
+            self.adversaries.record(now_s, state[:, POS_ENU], state[:, VEL_ENU])
         self._spoofer_broadcast(now_s)
         self._carry_air(now_s)
         self._periodic(now_s)
@@ -314,6 +300,7 @@ class SimBackend:
             "mode": list(truth.modes),
             "spoofer_sysid": spoofer,
             "spoofer_claimed_p_enu_m": None if claimed is None else claimed.round(4).tolist(),
+            "adversaries": self.adversaries.truth_record(truth.t_s, truth.p_enu_m, truth.v_enu_m_s),
         }
 
     def _samples(self) -> list[VehicleSample]:
@@ -381,25 +368,30 @@ class SimBackend:
         self._send(endpoint, _addressed(ack, received))
 
     def _spoofer_broadcast(self, now_s: float) -> None:
-        if self.spoofer_broadcaster is None or self.spoofer_index is None:
-            return
-        i = self.spoofer_index
-        state = self.fleet.state_of(i)
-        for msg in self.spoofer_broadcaster.due(now_s, state[POS_ENU], state[VEL_ENU]):
-            frame = self.transponders[i].on_message(now_s, msg)
-            if frame is not None:
-                self._pending_air.append(Transmission(now_s, i, frame))
+        for adversary in self.adversaries.items:
+            i = adversary.index
+            state = self.fleet.state_of(i)
+            for msg in adversary.broadcaster.due(now_s, state[POS_ENU], state[VEL_ENU]):
+                frame = self.transponders[i].on_message(now_s, msg)
+                if frame is not None:
+                    self._pending_air.append(Transmission(now_s, i, frame))
 
     def _carry_air(self, now_s: float) -> None:
         for i, transponder in enumerate(self.transponders):
             self._pending_air.extend(
                 Transmission(now_s, i, frame) for frame in transponder.due_static(now_s)
             )
+        if self.adversaries.has_silences:  # nothing at all from a silent transmitter
+            self._pending_air = [
+                tx for tx in self._pending_air if not self.adversaries.silent(tx.sender, now_s)
+            ]
         self.last_transmissions, self._pending_air = self._pending_air, []
         positions = self.fleet.state[:, POS_ENU]
-        self.last_receptions = self.radio.deliver(
-            self.last_transmissions, positions, self.fleet.state[:, EULER]
-        )
+        euler_rad = self.fleet.state[:, EULER]
+        if self.adversaries.has_random_power:
+            self.last_receptions = self._deliver_each(positions, euler_rad)
+        else:
+            self.last_receptions = self.radio.deliver(self.last_transmissions, positions, euler_rad)
         for rx in self.last_receptions:
             sender = self.transponders[rx.transmission.sender]
             report = self.transponders[rx.receiver].report(
@@ -408,6 +400,17 @@ class SimBackend:
             port = self.endpoints.get(endpoint_name(rx.receiver + 1, EndpointKind.COMPANION))
             if port is not None:
                 self._send(port, report, transponder=True)
+
+    def _deliver_each(self, positions: FloatArray, euler_rad: FloatArray) -> list[Reception]:
+        """One transmission at a time, each random-power sender at a fresh power (the same
+        draws of the channel, in the same order, as one ``deliver`` call)."""
+        receptions: list[Reception] = []
+        for tx in self.last_transmissions:
+            power_dbm = self.adversaries.power_dbm(tx.sender)
+            if power_dbm is not None:
+                self.radio.tx_power_dbm[tx.sender] = power_dbm
+            receptions.extend(self.radio.deliver([tx], positions, euler_rad))
+        return receptions
 
     def _periodic(self, now_s: float) -> None:
         snapshot: FleetSnapshot | None = None
@@ -457,8 +460,10 @@ class SimBackend:
     def truth(self) -> Truth:
         state = self.fleet.state
         claimed = None
-        if self.spoofer_broadcaster is not None and self.spoofer_index is not None:
-            claimed = self.spoofer_broadcaster.claimed_p_enu_m(state[self.spoofer_index, POS_ENU])
+        if self.spoofer_index is not None:
+            i = self.spoofer_index
+            broadcaster = self.adversaries.by_index[i].broadcaster
+            claimed, _ = broadcaster.claimed_state(self.t_s, state[i, POS_ENU], state[i, VEL_ENU])
         return Truth(
             self.t_s,
             state[:, POS_ENU],

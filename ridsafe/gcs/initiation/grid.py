@@ -9,7 +9,10 @@ transmit power profiled out (it is constant: one power for all receptions)::
     y_i(p) = z_i + 20 log10(max(||p - r_i||, 1)) + L          (implied power, paper eq. (8))
     Pt^(p) = mean(y),   C(p) = sum (y_i - Pt^(p))^2 / s^2,   pi(p | z) ~ exp(-C(p) / 2)
 
-(flat priors on position and power; one cell's mass is exp(-C/2) times its area).
+(flat priors on position and power; one cell's mass is exp(-C/2) times its area). With
+``per_message_power`` each transmission gets its own profiled power (a transmitter that draws
+a new power per message): C(p) sums each message's spread about its own mean, Pt^ is the
+mean of the messages' powers.
 
 1. coarse cells of ``cell_m`` over the receivers' extent plus ``margin_m``, at each altitude
    hypothesis;
@@ -100,11 +103,24 @@ def _local_minima(cost: FloatArray) -> NDArray[np.intp]:
     return np.flatnonzero(is_min)
 
 
+Parts = Sequence[tuple[FloatArray, FloatArray]]  # (rx, z) of each group with one power
+
+
 def _evaluate(
-    xy: FloatArray, altitudes_m: Sequence[float], rx: FloatArray, z: FloatArray, s2: float
+    xy: FloatArray, altitudes_m: Sequence[float], parts: Parts, s2: float
 ) -> tuple[FloatArray, FloatArray]:
     """Cost C / s^2 and profiled power at every cell of ``xy`` and altitude: (A, G) each."""
-    cost, power = grid_costs(xy, np.asarray(altitudes_m, float), rx, z, LOSS_AT_1M_2400MHZ_DB)
+    altitudes = np.asarray(altitudes_m, float)
+    if len(parts) == 1:
+        rx, z = parts[0]
+        cost, power = grid_costs(xy, altitudes, rx, z, LOSS_AT_1M_2400MHZ_DB)
+        return cost / s2, power
+    cost = np.zeros((altitudes.shape[0], xy.shape[0]))
+    power = np.zeros_like(cost)
+    for rx, z in parts:
+        c, p = grid_costs(xy, altitudes, rx, z, LOSS_AT_1M_2400MHZ_DB)
+        cost += c
+        power += p / len(parts)
     return cost / s2, power
 
 
@@ -143,7 +159,7 @@ def _moments(
 
 def _coarse_grid(
     rx: FloatArray,
-    z: FloatArray,
+    parts: Parts,
     altitudes_m: Sequence[float],
     s2: float,
     cell_m: float,
@@ -154,7 +170,7 @@ def _coarse_grid(
     xs, ys = _axes(rx, cell_m, margin_m)
     gx, gy = np.meshgrid(xs, ys, indexing="ij")
     xy = np.column_stack((gx.ravel(), gy.ravel()))
-    cost, power = _evaluate(xy, altitudes_m, rx, z, s2)
+    cost, power = _evaluate(xy, altitudes_m, parts, s2)
     side = np.full(xy.shape[0], cell_m)
     cells = [_Cells(xy, side, cost[a], power[a]) for a in range(len(altitudes_m))]
     return cells, (xs.shape[0], ys.shape[0])
@@ -173,15 +189,14 @@ def _fine_offsets(cell_m: float, fine_m: float) -> FloatArray:
 def _fine_window(
     centre: FloatArray,
     alt: float,
-    rx: FloatArray,
-    z: FloatArray,
+    parts: Parts,
     s2: float,
     cell_m: float,
     fine_m: float,
 ) -> _Cells:
     """``fine_m`` cells over the 3 x 3 coarse cells about ``centre``."""
     xy = centre + _fine_offsets(cell_m, fine_m)
-    cost, power = _evaluate(xy, (alt,), rx, z, s2)
+    cost, power = _evaluate(xy, (alt,), parts, s2)
     return _Cells(xy, np.full(xy.shape[0], fine_m), cost[0], power[0])
 
 
@@ -193,12 +208,18 @@ def grid_posterior(
     margin_m: float = 500.0,
     fine_m: float = 10.0,
     max_seeds: int = 6,
+    per_message_power: bool = False,
 ) -> list[GridSeed]:
     """One seed per retained posterior mode (module docstring); weights sum to 1."""
     rx = np.ascontiguousarray(np.vstack([claim.rx_p_enu_m for claim in claims]))
     z = np.ascontiguousarray(np.concatenate([claim.rssi_dbm for claim in claims]))
+    groups: Parts = [(rx, z)]
+    if per_message_power and len(claims) > 1:
+        groups = [
+            (np.ascontiguousarray(c.rx_p_enu_m), np.ascontiguousarray(c.rssi_dbm)) for c in claims
+        ]
     s2 = sigma_db**2
-    coarse, shape = _coarse_grid(rx, z, altitudes_m, s2, cell_m, margin_m)
+    coarse, shape = _coarse_grid(rx, groups, altitudes_m, s2, cell_m, margin_m)
     modes = sorted(
         (float(c.cost[i]), a, int(i))
         for a, c in enumerate(coarse)
@@ -211,7 +232,7 @@ def grid_posterior(
     d2 = np.sum((xy[:, None, :] - centres[None, :, :]) ** 2, axis=2)  # (G, modes)
     parts: list[tuple[_Cells, float]] = []
     for m, (_, a, i) in enumerate(modes):
-        fine = _fine_window(centres[m], altitudes_m[a], rx, z, s2, cell_m, fine_m)
+        fine = _fine_window(centres[m], altitudes_m[a], groups, s2, cell_m, fine_m)
         layer = [n for n, (_, b, _) in enumerate(modes) if b == a]
         mine = d2[:, m] <= d2[:, layer].min(axis=1)  # no farther than its layer's other modes
         mine &= _outside_neighbourhood(i, shape)

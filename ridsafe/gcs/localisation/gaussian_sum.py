@@ -43,6 +43,7 @@ from numpy.typing import NDArray
 
 from ridsafe.gcs.initiation.grid import GridSeed, grid_posterior, init_windows, spread_m
 from ridsafe.gcs.localisation import mixture_kernels
+from ridsafe.gcs.localisation.power_jitter import PowerJitter
 from ridsafe.gcs.localisation.rssi_update import (
     RssiMeasurement,
     gate_receptions,
@@ -156,6 +157,11 @@ class GaussianSumLocaliser:
         self.state = imm.initial_state(prior, 3, self.model, cfg.imm.mu0, t_s)
         self.weights = np.array([s.weight for s in seeds])
         self._prune()
+        self.power_jitter: PowerJitter | None = None
+        if f.tx_power_jitter == "adaptive":
+            self.power_jitter = PowerJitter(
+                f.tx_power_jitter_forgetting, f.tx_power_jitter_threshold_db
+            )
 
     # --- output ---------------------------------------------------------------------------
 
@@ -178,6 +184,8 @@ class GaussianSumLocaliser:
         self.state = imm.predict(self.state, self.model, max(claim.t_s, self.state.t_s))
         fused = imm.merge(self.state, self.model)
         mixture = moment_match(self.weights, fused)
+        if self.power_jitter is not None:
+            fused, mixture = self._loosen_power(fused, mixture, meas)
         keep = gate_receptions(mixture, 6, meas, f.reception_gate_sigma, _MAX_GATED_FRACTION)
         meas = meas.subset(keep)
         if self._split(fused, meas.rx):
@@ -194,6 +202,27 @@ class GaussianSumLocaliser:
         fused = self._merge_close(fused)
         self._respawn(fused)
         return True
+
+    def _loosen_power(
+        self, fused: Gaussian, mixture: Gaussian, meas: RssiMeasurement
+    ) -> tuple[Gaussian, Gaussian]:
+        """Observe this message's common-mode innovation; add the estimated per-message power
+        variance to every mode's power (``power_jitter.py``)."""
+        assert self.power_jitter is not None
+        idx = np.array([0, 1, 2, mixture.x.shape[1] - 1])
+        u, C = mixture.x[0, idx], mixture.P[0][np.ix_(idx, idx)]
+        self.power_jitter.observe(u, C, meas.rx, meas.rssi, meas.sigma_db)
+        jitter = self.power_jitter.variance_db2
+        if jitter <= 0.0:
+            return fused, mixture
+        modes = []
+        for g in self.state.modes:
+            P = g.P.copy()
+            P[:, -1, -1] += jitter
+            modes.append(Gaussian(g.x, P))
+        self.state = ImmState(tuple(modes), self.state.mu, self.state.t_s)
+        fused = imm.merge(self.state, self.model)
+        return fused, moment_match(self.weights, fused)
 
     def _iplf(self, fused: Gaussian, meas: RssiMeasurement) -> tuple[ImmState, FloatArray] | None:
         """IPLF iterations once per hypothesis, on its mode-merged observed block (``fused``);
@@ -342,7 +371,12 @@ def start(
     when no window is. Only windows ending after ``after_s`` are tried."""
     f = cfg.rssi_filter
     for used in init_windows(claims, cfg.multilateration.min_receivers, after_s):
-        seeds = grid_posterior(used, f.altitude_hypotheses_m, cfg.rssi_sigma_db)
+        seeds = grid_posterior(
+            used,
+            f.altitude_hypotheses_m,
+            cfg.rssi_sigma_db,
+            per_message_power=f.tx_power_jitter == "adaptive",
+        )
         limit = cfg.tracks.max_init_std_m
         if limit > 0 and spread_m(seeds) > limit:
             continue

@@ -62,6 +62,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ridsafe.common.ellipsoid import mahalanobis2
+from ridsafe.tools.analysis.adversary_metrics import adversary_metrics
 from ridsafe.tools.analysis.encounters import airborne, count_entry_events, pair_entry_events
 from ridsafe.tools.analysis.paper_metrics import PAPER_METRIC_KEYS, paper_metrics
 from ridsafe.tools.analysis.run_arrays import Regions, RunLog, Truth, load_run
@@ -306,7 +307,7 @@ def compute_metrics(
     distance = distance_to_spoofer_m(run, min_height_m)
     end = run.end or {}
     wall = end.get("wall_clock_s")
-    return {
+    metrics: Metrics = {
         "nmac_benign_benign": nmac_bb,
         "nmac_benign_spoofer": nmac_bs,
         "unsafe_violations": _unsafe_violations(run, min_height_m),
@@ -331,3 +332,5 @@ def compute_metrics(
         "autopilot_failsafes": run.autopilot_failsafes,
         **paper_metrics(run, min_height_m),
     }
+    metrics.update(adversary_metrics(run, min_height_m, arrival_times_s(run)))  # several/ghosts
+    return metrics

@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from ridsafe.tools.analysis.adversary_report import adversary_section
 from ridsafe.tools.analysis.published import PUBLISHED_RUNS
 from ridsafe.tools.analysis.sweep_results import (
     PLANNER_LABELS,
@@ -137,6 +138,7 @@ def render_markdown(
         rows = _section_rows(cells, section)
         if rows:
             lines += ["", f"## {section}", "", *_table(header, rows)]
+    lines += adversary_section(sweeps)  # issue 16's attack cells, if the sweep has them
     if plots:
         lines += ["", "## Plots", ""] + [f"![{p.stem}]({p.name})" for p in plots]
     problems = [(s.label, *p) for s in sweeps for p in s.problems]

@@ -35,8 +35,12 @@ def add_scenario_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def load_scenario_args(args: argparse.Namespace) -> ScenarioFile:
-    overrides = dict(parse_override(text) for text in args.overrides)
-    return load_scenario_file(args.config, overrides)
+    return load_scenario_file(args.config, override_pairs(args))
+
+
+def override_pairs(args: argparse.Namespace) -> dict[str, object]:
+    """The ``--set`` overrides as {dotted key: value}."""
+    return dict(parse_override(text) for text in args.overrides)
 
 
 def add_process_arguments(parser: argparse.ArgumentParser) -> None:

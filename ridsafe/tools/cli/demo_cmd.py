@@ -48,7 +48,9 @@ def run(args: argparse.Namespace) -> int:
     except (RidsafeError, OSError) as exc:
         print(f"ridsafe demo: {exc}", file=sys.stderr)
         return 2
-    scenario = dataclasses.replace(rescale_aircraft(loaded.scenario, 1), spoofer=None)
+    scenario = dataclasses.replace(
+        rescale_aircraft(loaded.scenario, 1), spoofer=None, spoofers=(), ghosts=()
+    )
     loaded = dataclasses.replace(loaded, scenario=scenario)
     ports = loaded.sim.ports
     backend = cores.make_sim_backend(loaded, NullSink(), [EndpointKind.GCS])

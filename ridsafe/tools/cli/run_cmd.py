@@ -67,7 +67,7 @@ def effective_scenario(args: argparse.Namespace) -> ScenarioFile:
         scenario = dataclasses.replace(loaded.scenario, **changes)  # type: ignore[arg-type]
         loaded = dataclasses.replace(loaded, scenario=scenario)
     if args.aircraft is not None:
-        loaded = with_aircraft(loaded, args.aircraft)
+        loaded = with_aircraft(loaded, args.aircraft, app_args.override_pairs(args))
     return loaded
 
 
@@ -86,7 +86,9 @@ def run(args: argparse.Namespace) -> int:
     scenario_path = out / "scenario.yaml"
     scenario_path.write_text(yaml.safe_dump(to_mapping(loaded), sort_keys=False))
     n = len(loaded.scenario.aircraft)
-    spoofer = "1 spoofer" if loaded.scenario.spoofer is not None else "no spoofer"
+    n_spoofers, n_ghosts = len(loaded.scenario.all_spoofers), len(loaded.scenario.ghosts)
+    spoofer = f"{n_spoofers or 'no'} spoofer{'' if n_spoofers == 1 else 's'}"
+    spoofer += f" + {n_ghosts} ghost{'' if n_ghosts == 1 else 's'}" if n_ghosts else ""
     print(
         f"{loaded.scenario.name}: {n} aircraft + {spoofer}, {loaded.scenario.duration_s:g} s, "
         f"seed {loaded.scenario.seed}, planner {planner}, {args.mode} -> {out}",

@@ -39,10 +39,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 def load_from_args(args: argparse.Namespace) -> ScenarioFile:
     loaded = app_args.load_scenario_args(args)
     if args.vehicles is not None:
-        loaded = with_aircraft(loaded, args.vehicles)
+        loaded = with_aircraft(loaded, args.vehicles, app_args.override_pairs(args))
     if args.no_spoofer:
         loaded = dataclasses.replace(
-            loaded, scenario=dataclasses.replace(loaded.scenario, spoofer=None)
+            loaded,
+            scenario=dataclasses.replace(loaded.scenario, spoofer=None, spoofers=(), ghosts=()),
         )
     return loaded
 

@@ -30,6 +30,7 @@ from tqdm import tqdm
 from ridsafe.common.config import parse_override, parse_yaml
 from ridsafe.common.errors import RidsafeError
 from ridsafe.tools.cli.arg_types import positive_float, positive_int
+from ridsafe.tools.run.scenario import check_no_drawn_overrides
 from ridsafe.tools.sweep.config import ParamAxis, ParamValue, SweepConfig
 from ridsafe.tools.sweep.engines import DaskEngine, LocalPoolEngine, default_workers
 from ridsafe.tools.sweep.folder import RunOutcome, RunStatus, is_finished
@@ -144,6 +145,7 @@ def make_engine(args: argparse.Namespace) -> Engine:
 def make_plan(args: argparse.Namespace) -> SweepPlan:
     overrides = dict(parse_override(text) for text in args.overrides)
     base, config = load_sweep_file(args.config, overrides)
+    check_no_drawn_overrides(base, overrides)
     plan = plan_sweep(base, sweep_config(args, config), str(args.config))
     check_plan(plan)
     return plan

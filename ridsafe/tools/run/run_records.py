@@ -16,7 +16,7 @@ from ridsafe.common.config import to_mapping
 from ridsafe.common.logsink import LogSink
 from ridsafe.tools.run.scenario import ScenarioFile
 
-__all__ = ["NMAC_THRESHOLD_M", "log_meta", "run_end", "run_meta"]
+__all__ = ["NMAC_THRESHOLD_M", "adversaries", "log_meta", "run_end", "run_meta"]
 
 NMAC_THRESHOLD_M = 50.0
 
@@ -26,11 +26,13 @@ def run_meta(loaded: ScenarioFile, mode: str, planner: str) -> dict[str, object]
     scenario = loaded.scenario
     n = len(scenario.aircraft)
     spoofer = None
-    if scenario.spoofer is not None:
+    if scenario.all_spoofers:  # the first spoofer (every one: ``adversaries``)
+        first = scenario.all_spoofers[0]
+        claim = first.resolved_claim
         spoofer = {
             "sysid": n + 1,
-            "serial": scenario.spoofer.serial,
-            "offset_enu_m": list(scenario.spoofer.offset_enu_m),
+            "serial": first.serial,
+            "offset_enu_m": None if claim.offset_enu_m is None else list(claim.offset_enu_m),
         }
     return {
         "mode": mode,
@@ -50,8 +52,40 @@ def run_meta(loaded: ScenarioFile, mode: str, planner: str) -> dict[str, object]
             for k, a in enumerate(scenario.aircraft)
         ],
         "spoofer": spoofer,
+        "adversaries": adversaries(loaded),
         "nmac_threshold_m": NMAC_THRESHOLD_M,
     }
+
+
+def adversaries(loaded: ScenarioFile) -> list[dict[str, object]]:
+    """Every spoofer and ghost: sysid, serial, role ("spoofer" / "ghost") and the kinds of its
+    motion, claim and power (the metrics' per-adversary keys read this)."""
+    scenario = loaded.scenario
+    out: list[dict[str, object]] = []
+    for k, spoofer in enumerate(scenario.all_spoofers):
+        power = spoofer.tx_power
+        out.append(
+            {
+                "sysid": scenario.first_spoofer_sysid + k,
+                "serial": spoofer.serial,
+                "role": "spoofer",
+                "motion": spoofer.resolved_motion.kind,
+                "claim": spoofer.resolved_claim.kind,
+                "tx_power": "fixed" if power is None else power.kind,
+            }
+        )
+    for k, ghost in enumerate(scenario.ghosts):
+        out.append(
+            {
+                "sysid": scenario.first_ghost_sysid + k,
+                "serial": ghost.serial,
+                "role": "ghost",
+                "transmitter_enu_m": list(ghost.transmitter_enu_m),
+                "claim": ghost.claim.kind,
+                "tx_power": "fixed" if ghost.tx_power is None else ghost.tx_power.kind,
+            }
+        )
+    return out
 
 
 def run_end(wall_clock_s: float, sim_time_s: float, status: str, reason: str) -> dict[str, object]:

@@ -26,8 +26,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ridsafe.common.config import load_config, with_overrides
-from ridsafe.common.errors import FieldValueError
+from ridsafe.common.config import OVERRIDE_SOURCE, load_config, with_overrides
+from ridsafe.common.errors import ConfigError, FieldValueError
 from ridsafe.common.scenario import Scenario, cta2063_serial
 from ridsafe.companion.config import CompanionConfig
 from ridsafe.companion.planner_config import PlannerConfig
@@ -121,15 +121,66 @@ def rescale_aircraft(scenario: Scenario, count: int) -> Scenario:
     return dataclasses.replace(scenario, aircraft=tuple(aircraft))
 
 
-def with_aircraft(loaded: ScenarioFile, count: int) -> ScenarioFile:
+#: Scenario keys a family draws anew: overrides under them are re-applied to the drawn scenario.
+FAMILY_DRAWN_KEYS = ("scenario.spoofer", "scenario.spoofers", "scenario.ghosts")
+
+
+def with_aircraft(
+    loaded: ScenarioFile, count: int, overrides: Mapping[str, object] | None = None
+) -> ScenarioFile:
     """The file with ``count`` benign aircraft: drawn from its ``family`` when it has one,
-    else by ``rescale_aircraft``."""
+    else by ``rescale_aircraft``.
+
+    ``overrides`` are the command line's ``--set`` values (already applied to ``loaded``). A
+    family draws the aircraft and the adversaries anew, so the overrides under
+    ``FAMILY_DRAWN_KEYS`` are applied again to the drawn scenario (an error if they do not fit
+    it, e.g. ``scenario.spoofer.*`` when the family drew a list of spoofers), and an override
+    of ``scenario.aircraft`` is an error: never silently dropped."""
     scenario = loaded.scenario
-    if loaded.family is not None:
-        scenario = generate(scenario, count, scenario.seed, loaded.family)
-    else:
-        scenario = rescale_aircraft(scenario, count)
+    if loaded.family is None:
+        return dataclasses.replace(loaded, scenario=rescale_aircraft(scenario, count))
+    scenario = generate(scenario, count, scenario.seed, loaded.family)
+    drawn = {k: v for k, v in (overrides or {}).items() if _under(k, FAMILY_DRAWN_KEYS)}
+    for key in overrides or {}:
+        if _under(key, ("scenario.aircraft",)):
+            raise ConfigError(
+                OVERRIDE_SOURCE,
+                key,
+                "the family draws the aircraft for --aircraft: this override cannot apply "
+                "(set the family's keys instead)",
+            )
+    if drawn:
+        names = sorted({k.split(".")[1] for k in drawn})
+        for name in names:
+            if name == "spoofer" and scenario.spoofer is None:
+                raise ConfigError(
+                    OVERRIDE_SOURCE,
+                    "scenario.spoofer",
+                    "the family drew its spoofers into scenario.spoofers, not the single "
+                    "scenario.spoofer: set family.adversaries keys instead",
+                )
+        relative = {k.removeprefix("scenario."): v for k, v in drawn.items()}
+        scenario = with_overrides(scenario, relative)
     return dataclasses.replace(loaded, scenario=scenario)
+
+
+def check_no_drawn_overrides(loaded: ScenarioFile, overrides: Mapping[str, object]) -> None:
+    """A sweep draws every run's aircraft and adversaries from the family: a ``--set`` under
+    ``scenario.aircraft`` or ``FAMILY_DRAWN_KEYS`` would be lost, so it is an error."""
+    if loaded.family is None:
+        return
+    for key in overrides:
+        if _under(key, ("scenario.aircraft", *FAMILY_DRAWN_KEYS)):
+            raise ConfigError(
+                OVERRIDE_SOURCE,
+                key,
+                "every run's aircraft and adversaries are drawn from the family: set "
+                "family.* keys (e.g. family.adversaries.tx_power_dbm) instead",
+            )
+
+
+def _under(key: str, prefixes: tuple[str, ...]) -> bool:
+    return any(key == p or key.startswith(p + ".") for p in prefixes)
 
 
 def _shifted(p: tuple[float, float, float], dx_m: float) -> tuple[float, float, float]:

@@ -19,14 +19,19 @@ Matched seeds: the aircraft are drawn from ``rng.stream(seed, "scenario")`` with
 number of draws per aircraft, the spoofer's candidate lines from a stream of their own, so the
 same seed gives the same depots, deliveries and spoofer for both planners, and aircraft k of a
 16-aircraft scenario is aircraft k of the 8-aircraft one (the candidate lines are the same too;
-which one the spoofer flies depends on the traffic).
+which one the spoofer flies depends on the traffic). The aim looks ``aim_horizon_s`` ahead
+(not the run's duration), so ``--duration`` never changes which line is drawn.
+
+``adversaries`` (``family_adversaries.AdversaryDraw``) draws more spoofers, other motion and
+claim kinds, random power and ghosts per seed; its default is the one aimed-line offset
+spoofer above, given as the scenario's ``spoofer`` shorthand.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -39,6 +44,7 @@ from ridsafe.common.scenario import (
     Vec3,
     cta2063_serial,
 )
+from ridsafe.tools.run.family_adversaries import AdversaryDraw, draw_ghost, draw_spoofer
 
 SERIAL_MAKER = "RSAF"
 
@@ -70,6 +76,8 @@ class FamilyConfig:
     nominal_climb_m_s: float = 2.5
     nominal_takeoff_s: float = 4.0  # from departure to leaving the pad
     nmac_radius_m: float = 50.0
+    aim_horizon_s: float = 120.0  # how far ahead the spoofer's aim looks (not the duration)
+    adversaries: AdversaryDraw = field(default_factory=AdversaryDraw)
 
     def __post_init__(self) -> None:
         if not self.depots_enu_m:
@@ -90,14 +98,55 @@ def generate(base: Scenario, n_aircraft: int, seed: int, family: FamilyConfig) -
         raise ValueError(f"need at least one aircraft, got {n_aircraft}")
     draw = rng.stream(seed, "scenario")
     aircraft = tuple(_aircraft(k, draw, family) for k in range(n_aircraft))
-    spoofer_draw = rng.stream(seed, "scenario/spoofer")
-    candidates = [_spoofer(spoofer_draw, family) for _ in range(family.spoofer_candidate_lines)]
-    duration_s = base.duration_s
-    met = [_nominal_encounters(aircraft, c, duration_s, family) for c in candidates]
-    spoofer = candidates[int(np.argmax(met))]  # the first of equals
-    return dataclasses.replace(
-        base, aircraft=aircraft, spoofer=spoofer, seed=seed, name=f"family-n{n_aircraft}-s{seed}"
+    wanted = family.adversaries.resolved()
+    name = f"family-n{n_aircraft}-s{seed}"
+    if wanted.is_default:
+        spoofer = _aimed_line(aircraft, seed, "scenario/spoofer", family)
+        if wanted.tx_power_dbm is not None:
+            spoofer = dataclasses.replace(spoofer, tx_power_dbm=wanted.tx_power_dbm)
+        return dataclasses.replace(
+            base, aircraft=aircraft, spoofer=spoofer, spoofers=(), ghosts=(), seed=seed, name=name
+        )
+    spoofers = tuple(
+        draw_spoofer(
+            k,
+            seed,
+            _aimed_line(
+                aircraft, seed, "scenario/spoofer" if k == 0 else f"scenario/spoofer/{k}", family
+            ),
+            aircraft,
+            family.depots_enu_m,
+            family.half_width_m,
+            family.spoofer_alt_m,
+            base.radio.tx_power_dbm,
+            wanted,
+        )
+        for k in range(wanted.spoofer_count)
     )
+    ghosts = tuple(
+        draw_ghost(k, seed, family.half_width_m, family.spoofer_alt_m, wanted)
+        for k in range(wanted.ghost_count)
+    )
+    return dataclasses.replace(
+        base,
+        aircraft=aircraft,
+        spoofer=None,
+        spoofers=spoofers,
+        ghosts=ghosts,
+        seed=seed,
+        name=name,
+    )
+
+
+def _aimed_line(
+    aircraft: tuple[AircraftConfig, ...], seed: int, stream: str, family: FamilyConfig
+) -> SpooferConfig:
+    """Of ``spoofer_candidate_lines`` lines drawn from ``stream``, the one the nominal traffic
+    meets most (the first of equals)."""
+    spoofer_draw = rng.stream(seed, stream)
+    candidates = [_spoofer(spoofer_draw, family) for _ in range(family.spoofer_candidate_lines)]
+    met = [_nominal_encounters(aircraft, c, family.aim_horizon_s, family) for c in candidates]
+    return candidates[int(np.argmax(met))]
 
 
 def _nominal_encounters(
@@ -109,6 +158,7 @@ def _nominal_encounters(
 ) -> int:
     """How many times a nominal benign flight comes within the NMAC radius of the spoofer."""
     t_s = np.arange(0.0, duration_s, step_s)
+    assert spoofer.start_enu_m is not None and spoofer.goal_enu_m is not None
     s0, s1 = np.array(spoofer.start_enu_m), np.array(spoofer.goal_enu_m)
     length_m = float(np.linalg.norm(s1 - s0))
     spoofer_enu = s0 + np.outer(np.minimum(t_s * spoofer.speed_m_s, length_m), (s1 - s0) / length_m)

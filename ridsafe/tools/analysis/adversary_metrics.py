@@ -1,0 +1,228 @@
+"""Metrics per adversary (every spoofer and ghost of ``/run/meta``'s ``adversaries``).
+
+``compute_metrics`` merges :func:`adversary_metrics` into its result. For a run with one
+spoofer and no ghost the common keys are those ``metrics`` already computes, the same values;
+with several adversaries:
+
+- ``nmac_benign_spoofer``: NMAC entry events of (benign, spoofer) pairs summed over every
+  spoofer's true position (ghost transmitters are not aircraft: not counted);
+- ``false_alerts``: ``raised`` alerts for a serial that is no adversary's (a ghost's alert is
+  a true alert);
+- ``containment_rate`` / ``rmse_m``: the mean over spoofers of each one's rate (its regions at
+  or after its own first alert, containing its true position) and RMSE (its track), spoofers
+  never alerted left out; ``containment_rate_min`` the worst one; ``spoofers_alerted`` how many
+  of ``spoofer_count`` were.
+
+When the lie can hurt: a planner that trusts Remote ID keeps ``d_safe_m`` (the planner's, 100 m)
+from where the RID says an aircraft is; the true aircraft is ``|lie|`` from there, so the
+trusting planner may come within ``d_safe_m - |lie|`` of it, an NMAC once that is under the
+NMAC radius: the lie can hurt once ``|lie| > harm_lie_m = d_safe_m - nmac_threshold_m`` (50 m).
+Per spoofer (truth channel: claimed vs true position): ``lie_at_alert_m``, ``harm_time_s`` (first
+time the lie exceeds ``harm_lie_m``; None: never) and ``alerted_before_harm``; the run's
+``spoofers_alerted_before_harm`` counts the spoofers whose lie never got there un-alerted.
+
+Whenever the run lists adversaries (also one spoofer; so a run with ghosts compares with the
+same seed without):
+``benign_path_length_m`` (sum over benign aircraft of the 3D length flown, truth samples) and
+``mean_arrival_time_s`` (over the aircraft that arrived). With ghosts: ``ghosts_alerted``
+(ghosts with a raised alert) and ``ghost_region_containment`` (fraction of the ghosts'
+regions that contain the ghost's real transmitter: the GCS knows where the radio is).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ridsafe.common import topics
+from ridsafe.common.ellipsoid import mahalanobis2
+from ridsafe.tools.analysis.encounters import airborne, pair_entry_events
+from ridsafe.tools.analysis.run_arrays import RunLog
+from ridsafe.tools.runlog.reader import read_records
+
+FloatArray = NDArray[np.float64]
+Metrics = dict[str, float | int | None]
+
+__all__ = ["DEFAULT_D_SAFE_M", "adversaries_of", "adversary_metrics", "harm_lie_m", "per_adversary"]
+
+#: The trusting planner's separation from a claimed position when the run does not say (m).
+DEFAULT_D_SAFE_M = 100.0
+
+
+def adversaries_of(run: RunLog) -> list[Mapping[str, Any]]:
+    """``/run/meta``'s adversaries (empty for logs written before they were listed)."""
+    items = run.meta.get("adversaries") or []
+    return [a for a in items if isinstance(a, Mapping)]
+
+
+def harm_lie_m(run: RunLog) -> float:
+    """The lie beyond which a trusting planner could be steered into an NMAC (docstring)."""
+    planner = (run.meta.get("scenario") or {}).get("planner") or {}
+    d_safe = float(planner.get("d_safe_m", DEFAULT_D_SAFE_M))
+    return max(d_safe - run.nmac_threshold_m, 0.0)
+
+
+def _lies(run: RunLog) -> dict[str, tuple[FloatArray, FloatArray]]:
+    """serial -> (times, |claimed - true| m) from the truth channel's ``adversaries``."""
+    times: dict[str, list[float]] = {}
+    lies: dict[str, list[float]] = {}
+    for _topic, t_s, record in read_records(run.path, topics=(topics.TRUTH,)):
+        p = record.get("p_enu_m")
+        sysids = record.get("sysid") or []
+        for item in record.get("adversaries") or ():
+            if p is None or item.get("role") != "spoofer" or item["sysid"] not in sysids:
+                continue
+            true = np.asarray(p[sysids.index(item["sysid"])], dtype=np.float64)
+            lie = float(np.linalg.norm(np.asarray(item["claimed_p_enu_m"]) - true))
+            times.setdefault(item["serial"], []).append(t_s)
+            lies.setdefault(item["serial"], []).append(lie)
+    return {k: (np.array(times[k]), np.array(lies[k])) for k in times}
+
+
+def _harm(
+    t_s: FloatArray, lie_m: FloatArray, alert_s: float | None, limit_m: float
+) -> dict[str, Any]:
+    over = np.flatnonzero(lie_m > limit_m)
+    harm = float(t_s[over[0]]) if over.size else None
+    at_alert = None
+    if alert_s is not None and t_s.size:
+        at_alert = float(lie_m[max(int(np.searchsorted(t_s, alert_s, side="right")) - 1, 0)])
+    before = harm is None or (alert_s is not None and alert_s <= harm)
+    return {"lie_at_alert_m": at_alert, "harm_time_s": harm, "alerted_before_harm": before}
+
+
+def _alert_s(run: RunLog, serial: str) -> float | None:
+    for t_s, alert in run.alerts:
+        if str(alert.get("uas_id")) == serial and alert.get("state") == "raised":
+            return t_s
+    return None
+
+
+def _containment(
+    run: RunLog, serial: str, column: int, since_s: float, point: FloatArray | None = None
+) -> float | None:
+    """Fraction of ``serial``'s regions at/after ``since_s`` containing the truth of ``column``
+    (or the fixed ``point``)."""
+    regions = run.regions.select((run.regions.uas_id == serial) & (run.regions.t_s >= since_s))
+    if regions.t_s.size == 0:
+        return None
+    if point is None:
+        p, _armed = run.truth.at(regions.t_s)
+        truth = p[:, column]
+    else:
+        truth = np.broadcast_to(point, regions.center_enu_m.shape)
+    m2 = mahalanobis2(truth - regions.center_enu_m, regions.cov_enu_m2)
+    known = np.isfinite(m2)
+    if not known.any():
+        return None
+    return float(np.mean(m2[known] <= regions.chi2[known]))
+
+
+def _rmse(run: RunLog, serial: str, column: int, since_s: float) -> float | None:
+    mask = (run.track_uas_id == serial) & (run.track_t_s >= since_s)
+    if not mask.any():
+        return None
+    p, _armed = run.truth.at(run.track_t_s[mask])
+    error = np.linalg.norm(run.track_p_enu_m[mask] - p[:, column], axis=-1)
+    error = error[np.isfinite(error)]
+    return float(np.sqrt(np.mean(error**2))) if error.size else None
+
+
+def per_adversary(run: RunLog, min_height_m: float) -> list[dict[str, Any]]:
+    """One row per adversary: serial, role, alert time, containment, RMSE, NMACs (spoofers)."""
+    truth = run.truth
+    benign = np.array(
+        [c for c in (truth.column(s) for s in run.benign_sysids) if c is not None], dtype=np.int64
+    )
+    flying = airborne(truth.p_enu_m, truth.armed, min_height_m)
+    lies = _lies(run) if run.path.exists() else {}
+    limit_m = harm_lie_m(run)
+    rows: list[dict[str, Any]] = []
+    for adversary in adversaries_of(run):
+        serial, role = str(adversary["serial"]), str(adversary.get("role"))
+        column = truth.column(int(adversary["sysid"]))
+        alert = _alert_s(run, serial)
+        row: dict[str, Any] = {"serial": serial, "role": role, "alert_time_s": alert}
+        if column is not None and role == "spoofer":
+            others = np.full(benign.size, column, dtype=np.int64)
+            row["nmac_benign"] = (
+                pair_entry_events(truth.p_enu_m, flying, benign, others, run.nmac_threshold_m)
+                if truth.t_s.size
+                else 0
+            )
+            since = alert if alert is not None else np.inf
+            row["containment_rate"] = _containment(run, serial, column, since)
+            row["rmse_m"] = _rmse(run, serial, column, since)
+            if serial in lies:
+                row.update(_harm(*lies[serial], alert, limit_m))
+        elif column is not None:
+            transmitter = np.asarray(adversary.get("transmitter_enu_m"), dtype=np.float64)
+            row["region_containment"] = _containment(run, serial, column, -np.inf, transmitter)
+            row["region_count"] = int(np.count_nonzero(run.regions.uas_id == serial))
+        rows.append(row)
+    return rows
+
+
+def _path_and_arrival(
+    run: RunLog, arrivals_s: Mapping[int, float | None]
+) -> tuple[float | None, float | None]:
+    truth = run.truth
+    columns = [c for c in (truth.column(s) for s in run.benign_sysids) if c is not None]
+    if truth.t_s.size < 2 or not columns:
+        return None, None
+    steps = np.linalg.norm(np.diff(truth.p_enu_m[:, columns], axis=0), axis=-1)
+    path = float(np.nansum(steps))
+    arrivals = [t for t in arrivals_s.values() if t is not None]
+    return path, (float(np.mean(arrivals)) if arrivals else None)
+
+
+def _mean(values: list[float | None]) -> float | None:
+    known = [v for v in values if v is not None]
+    return float(np.mean(known)) if known else None
+
+
+def adversary_metrics(
+    run: RunLog, min_height_m: float, arrivals_s: Mapping[int, float | None]
+) -> Metrics:
+    """The keys of the module docstring (``arrivals_s``: ``metrics.arrival_times_s``)."""
+    listed = adversaries_of(run)
+    if not listed:  # no adversary (or a log from before they were listed): no extra key
+        return {}
+    path, arrival = _path_and_arrival(run, arrivals_s)
+    out: Metrics = {"benign_path_length_m": path, "mean_arrival_time_s": arrival}
+    spoofers = [a for a in listed if a.get("role") == "spoofer"]
+    ghosts = [a for a in listed if a.get("role") == "ghost"]
+    rows = per_adversary(run, min_height_m)
+    out["spoofers_alerted_before_harm"] = sum(
+        1 for r in rows if r["role"] == "spoofer" and r.get("alerted_before_harm")
+    )
+    out["lie_at_alert_m"] = _mean([r.get("lie_at_alert_m") for r in rows if r["role"] == "spoofer"])
+    if len(spoofers) <= 1 and not ghosts:
+        return out
+    spoofer_rows = [r for r in rows if r["role"] == "spoofer"]
+    ghost_rows = [r for r in rows if r["role"] == "ghost"]
+    serials = {str(a["serial"]) for a in listed}
+    containments = [r.get("containment_rate") for r in spoofer_rows]
+    known = [c for c in containments if c is not None]
+    out.update(
+        {
+            "nmac_benign_spoofer": sum(int(r.get("nmac_benign") or 0) for r in spoofer_rows),
+            "false_alerts": sum(
+                1
+                for _t, alert in run.alerts
+                if alert.get("state") == "raised" and str(alert.get("uas_id")) not in serials
+            ),
+            "spoofer_count": len(spoofer_rows),
+            "spoofers_alerted": sum(1 for r in spoofer_rows if r["alert_time_s"] is not None),
+            "containment_rate": _mean(containments),
+            "containment_rate_min": min(known) if known else None,
+            "rmse_m": _mean([r.get("rmse_m") for r in spoofer_rows]),
+        }
+    )
+    if ghost_rows:
+        out["ghosts_alerted"] = sum(1 for r in ghost_rows if r["alert_time_s"] is not None)
+        out["ghost_region_containment"] = _mean([r.get("region_containment") for r in ghost_rows])
+    return out

@@ -1,0 +1,145 @@
+"""The report's adversary section: one row per attack cell (sweep axis ``adversary``, the
+family presets of ``configs/adversaries.yaml``) and density, checked against issue 16's bar.
+
+Per cell and planner, means over the completed runs: benign-spoofer NMACs (every spoofer's true
+position), the worst spoofer's containment (``containment_rate_min``, else the one spoofer's
+``containment_rate``), false alerts, delivered fraction, spoofers caught before their lie could
+hurt. The bar (aware): NMACs <= ``MAX_AWARE_NMAC`` per run and at most ``NMAC_RATIO`` of
+trust-RID's where trust-RID has >= ``TRUST_NMAC_FLOOR``; containment >= ``MIN_CONTAINMENT``;
+no false alert; ghost cells deliver at least ``1 - MAX_GHOST_DELIVERY_LOSS`` of the control cell
+``line`` on the same seeds (trust-RID's cost shown beside).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from ridsafe.tools.analysis.sweep_results import RunRecord, SweepResults
+
+__all__ = ["AXIS", "adversary_section"]
+
+AXIS = "adversary"
+CONTROL = "line"
+MAX_AWARE_NMAC = 0.15
+NMAC_RATIO = 0.2
+TRUST_NMAC_FLOOR = 0.5
+MIN_CONTAINMENT = 0.90
+MAX_GHOST_DELIVERY_LOSS = 0.02
+
+
+def _cell(record: RunRecord) -> str | None:
+    for name, value in record.params:
+        if name == AXIS:
+            return str(value)
+    return None
+
+
+def _mean(records: Sequence[RunRecord], key: str) -> float | None:
+    values = [r.metrics.get(key) for r in records]
+    known = [float(v) for v in values if isinstance(v, int | float) and math.isfinite(v)]
+    return float(np.mean(known)) if known else None
+
+
+def _containment(records: Sequence[RunRecord]) -> float | None:
+    worst = _mean(records, "containment_rate_min")
+    return worst if worst is not None else _mean(records, "containment_rate")
+
+
+def _fmt(value: float | None, digits: int = 2) -> str:
+    return "n/a" if value is None else f"{value:.{digits}f}"
+
+
+def _deliveries(records: Sequence[RunRecord]) -> dict[int, float]:
+    return {
+        r.spec.seed: float(r.metrics["goal_reached_fraction"] or 0.0)
+        for r in records
+        if r.metrics.get("goal_reached_fraction") is not None
+    }
+
+
+def _ghost_cost(cell: Sequence[RunRecord], control: Sequence[RunRecord]) -> float | None:
+    """Delivered fraction with ghosts over that of the control cell, same seeds."""
+    mine, base = _deliveries(cell), _deliveries(control)
+    seeds = sorted(set(mine) & set(base))
+    total = sum(base[s] for s in seeds)
+    return None if not seeds or total == 0 else sum(mine[s] for s in seeds) / total
+
+
+def _verdict(
+    aware: Sequence[RunRecord], trust: Sequence[RunRecord], ghost_ratio: float | None
+) -> str:
+    misses = []
+    nmac, trust_nmac = _mean(aware, "nmac_benign_spoofer"), _mean(trust, "nmac_benign_spoofer")
+    if nmac is not None and nmac > MAX_AWARE_NMAC:
+        misses.append(f"NMAC {nmac:.2f} > {MAX_AWARE_NMAC}")
+    floor_met = trust_nmac is not None and trust_nmac >= TRUST_NMAC_FLOOR
+    if nmac is not None and trust_nmac is not None and floor_met and nmac > NMAC_RATIO * trust_nmac:
+        misses.append(f"NMAC {nmac:.2f} > {NMAC_RATIO} x trust-RID {trust_nmac:.2f}")
+    containment = _containment(aware)
+    if containment is not None and containment < MIN_CONTAINMENT:
+        misses.append(f"containment {containment:.2f} < {MIN_CONTAINMENT}")
+    false_alerts = _mean(aware, "false_alerts")
+    if false_alerts:
+        misses.append(f"false alerts {false_alerts:.2f}/run")
+    if ghost_ratio is not None and ghost_ratio < 1.0 - MAX_GHOST_DELIVERY_LOSS:
+        misses.append(f"deliveries {100 * (1 - ghost_ratio):.1f} % lost to ghosts")
+    return "meets" if not misses else "misses: " + "; ".join(misses)
+
+
+def adversary_section(sweeps: Sequence[SweepResults]) -> list[str]:
+    """Markdown lines of the section (none when no sweep has an ``adversary`` axis)."""
+    records = [r for s in sweeps for r in s.records if _cell(r) is not None]
+    if not records:
+        return []
+    header = (
+        "| Attack | Aircraft | Runs | NMAC b-s aware | NMAC b-s trust-RID | containment (worst "
+        "spoofer) | false alerts | delivered aware | delivered trust-RID | vs `line` aware | "
+        "vs `line` trust-RID | caught before harm | Verdict |"
+    )
+    lines = ["", "## Adversaries", "", header, "|" + "---|" * 13]
+    cells = list(dict.fromkeys(_cell(r) for r in records))
+    for density in sorted({r.density for r in records}):
+        for name in cells:
+
+            def pick(planner: str, cell: str | None = name, n: int = density) -> list[RunRecord]:
+                return [
+                    r
+                    for r in records
+                    if _cell(r) == cell and r.density == n and r.planner == planner
+                ]
+
+            aware, trust = pick("aware"), pick("trust-rid")
+            if not aware and not trust:
+                continue
+            ratio_aware = _ghost_cost(aware, pick("aware", CONTROL))
+            ratio_trust = _ghost_cost(trust, pick("trust-rid", CONTROL))
+            is_ghost = any(r.metrics.get("ghosts_alerted") is not None for r in aware + trust)
+            row = [
+                f"`{name}`",
+                str(density),
+                f"{len(aware)}/{len(trust)}",
+                _fmt(_mean(aware, "nmac_benign_spoofer")),
+                _fmt(_mean(trust, "nmac_benign_spoofer")),
+                _fmt(_containment(aware)),
+                _fmt(_mean(aware, "false_alerts")),
+                _fmt(_mean(aware, "goal_reached_fraction")),
+                _fmt(_mean(trust, "goal_reached_fraction")),
+                _fmt(ratio_aware, 3),
+                _fmt(ratio_trust, 3),
+                _fmt(_mean(aware, "spoofers_alerted_before_harm")),
+                _verdict(aware, trust, ratio_aware if is_ghost else None),
+            ]
+            lines.append("| " + " | ".join(row) + " |")
+    lines += [
+        "",
+        f"Bar (issue 16): aware NMACs <= {MAX_AWARE_NMAC}/run and <= {NMAC_RATIO} x trust-RID's "
+        f"where that is >= {TRUST_NMAC_FLOOR}; containment >= {MIN_CONTAINMENT} for every "
+        f"spoofer; no false alert; ghosts cost <= {100 * MAX_GHOST_DELIVERY_LOSS:g} % of the "
+        f"deliveries of `{CONTROL}` on the same seeds. 'caught before harm': spoofers alerted "
+        "before their lie exceeded d_safe - NMAC radius (50 m; a lie from the start counts "
+        "as not caught). Containment: the worst spoofer's per run.",
+    ]
+    return lines
