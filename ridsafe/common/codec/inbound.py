@@ -34,6 +34,7 @@ from collections.abc import Callable
 from dataclasses import fields
 
 from ridsafe.common import messages as m
+from ridsafe.common import protocol_messages as p
 
 __all__ = ["first_invalid_field"]
 
@@ -146,7 +147,9 @@ def _not_finite(value: float) -> bool:
 _NAN_MEANS_UNSET: frozenset[type] = frozenset({m.SetPositionTargetLocalNed})
 
 
-def _command_long(message: m.CommandLong) -> str | None:
+def _command(message: m.CommandLong | p.CommandInt) -> str | None:
+    """COMMAND_LONG and COMMAND_INT alike: a parameter the command does not read may be NaN
+    (MAVLink's "unset", as MAVSDK sends), never infinite."""
     used = _COMMAND_PARAMS.get(message.command, ())
     for index, low, high in used:
         value = message.params[index]
@@ -167,7 +170,8 @@ def _region(message: m.UnsafeRegionMsg) -> str | None:
 
 
 _SPECIAL: dict[type, Callable[[m.Message], str | None]] = {
-    m.CommandLong: _command_long,  # type: ignore[dict-item]
+    m.CommandLong: _command,  # type: ignore[dict-item]
+    p.CommandInt: _command,  # type: ignore[dict-item]
     m.UnsafeRegionMsg: _region,  # type: ignore[dict-item]
 }
 
@@ -179,7 +183,7 @@ def first_invalid_field(message: m.Message) -> str | None:
         bad = special(message)
         if bad is not None:
             return bad
-    if not isinstance(message, m.CommandLong | m.OdidRaw):
+    if not isinstance(message, m.CommandLong | p.CommandInt | m.OdidRaw):
         bad = _non_finite_field(message)
         if bad is not None:
             return bad
