@@ -88,7 +88,7 @@ def peer_endpoint(peer: str) -> str:
 # --- frame conversions at the boundary (pure) ------------------------------------------------
 
 
-def cov_enu_to_ned(cov_enu_m2: FloatArray) -> Cov6:
+def ned_upper_triangle(cov_enu_m2: FloatArray) -> Cov6:
     """(3, 3) ENU covariance -> NED upper triangle (xx, xy, xz, yy, yz, zz): T P T^T."""
     p = frames.cov_enu_to_ned(cov_enu_m2)
     xx, xy, xz, yy, yz, zz = (float(p[i, j]) for i, j in _UPPER)
@@ -108,7 +108,7 @@ def region_message(
         center_lat_deg=lat,
         center_lon_deg=lon,
         center_alt_m=alt,
-        cov_ned_m2=cov_enu_to_ned(region.cov_enu_m2),
+        cov_ned_m2=ned_upper_triangle(region.cov_enu_m2),
         v_ned_m_s=(float(v[0]), float(v[1]), float(v[2])),
         chi2_threshold=region.chi2_threshold,
         alpha=region.alpha,

@@ -22,7 +22,7 @@ from ridsafe.common import messages as m
 from ridsafe.common.ellipsoid import inside
 from ridsafe.common.logsink import MemorySink
 from ridsafe.gcs.config import ClockSource, GcsConfig
-from ridsafe.gcs.gcs import Gcs, cov_enu_to_ned, peer_endpoint
+from ridsafe.gcs.gcs import Gcs, ned_upper_triangle, peer_endpoint
 from ridsafe.gcs.pipeline import EstimationPipeline
 from ridsafe.gcs.pipeline_api import (
     AlertChange,
@@ -255,7 +255,7 @@ def test_cov_permutation_matches_the_matrix_product() -> None:
     t = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
     full = t @ cov @ t.T
     upper = [full[i, j] for i, j in ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))]
-    np.testing.assert_allclose(cov_enu_to_ned(cov), upper, rtol=1e-12)
+    np.testing.assert_allclose(ned_upper_triangle(cov), upper, rtol=1e-12)
 
 
 def test_gcs_heartbeats_at_one_hertz_as_a_ground_station() -> None:
