@@ -161,8 +161,9 @@ def _report(out: Path, status: str, reason: str, as_json: bool) -> int:
         print(json.dumps(summary, indent=2))
     else:
         print(f"run {status}{': ' + reason if reason else ''}; log {log}")
+        width = max(map(len, metrics), default=0)
         for key, value in metrics.items():
             text = "n/a" if value is None else f"{value:.4g}" if isinstance(value, float) else value
-            print(f"  {key:28s} {text}")
+            print(f"  {key:{width}s} {text}")
         print(f"metrics in {out / 'summary.json'}")
     return 0 if status == "completed" else 1
