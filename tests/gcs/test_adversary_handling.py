@@ -26,6 +26,7 @@ from ridsafe.gcs.pipeline_config import (
     TrackConfig,
 )
 from ridsafe.gcs.synthetic.traffic import CYCLE_S, SPOOFER_ID, Scene, Traffic, make_traffic
+from tests.gcs.claims import observed_claim
 
 RX = np.array(
     [[0.0, 0.0, 50.0], [400.0, 0.0, 60.0], [0.0, 400.0, 40.0], [400.0, 400.0, 70.0],
@@ -49,11 +50,7 @@ def test_the_jitter_estimate_finds_a_per_message_power_and_none_in_a_constant_on
 
 
 def _claim(t: float, rx: np.ndarray, rssi: np.ndarray) -> ObservedClaim:
-    k = rx.shape[0]
-    return ObservedClaim(
-        "x", t, readonly(P_TRUE), None, np.arange(1, k + 1, dtype=np.int64), readonly(rx),
-        readonly(np.full(k, t)), readonly(rssi),
-    )  # fmt: skip
+    return observed_claim("x", t, P_TRUE, rx, rssi)
 
 
 def test_the_track_start_profiles_one_power_per_message() -> None:

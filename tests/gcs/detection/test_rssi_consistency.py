@@ -23,10 +23,11 @@ from ridsafe.gcs.detection.rssi_consistency import (
     sufficient_statistics,
     surprisal,
 )
-from ridsafe.gcs.pipeline_api import ObservedClaim, readonly
+from ridsafe.gcs.pipeline_api import ObservedClaim
 from ridsafe.gcs.pipeline_config import DetectionConfig, PipelineConfig
 from ridsafe.gcs.synthetic.evaluate import run_pipeline
 from ridsafe.gcs.synthetic.traffic import SPOOFER_ID, Scene, make_traffic
+from tests.gcs.claims import observed_claim
 
 PAPER = DetectionConfig(position_sigma_m=0.0)
 
@@ -46,17 +47,7 @@ def _honest_rssi(
 def _claim(
     t: float, claimed: np.ndarray, rx: np.ndarray, rssi: np.ndarray, uas: str = "X"
 ) -> ObservedClaim:
-    k = rx.shape[0]
-    return ObservedClaim(
-        uas,
-        t,
-        readonly(claimed),
-        None,
-        np.arange(1, k + 1, dtype=np.int64),
-        readonly(rx),
-        readonly(np.full(k, t)),
-        readonly(rssi),
-    )
+    return observed_claim(uas, t, claimed, rx, rssi)
 
 
 def test_implied_power_is_the_papers_inversion() -> None:

@@ -6,27 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ridsafe.common.pathloss import received_power_dbm
 from ridsafe.gcs.initiation.grid import grid_posterior, init_windows, spread_m
-from ridsafe.gcs.pipeline_api import ObservedClaim, readonly
-
-
-def _claim(
-    t: float, p: np.ndarray, rx: np.ndarray, rng: np.random.Generator, sigma: float = 1.0
-) -> ObservedClaim:
-    d = np.linalg.norm(rx - p, axis=1)
-    rssi = received_power_dbm(20.0, d) + rng.normal(0, sigma, rx.shape[0])
-    k = rx.shape[0]
-    return ObservedClaim(
-        "S",
-        t,
-        readonly(p),
-        None,
-        np.arange(1, k + 1),
-        readonly(rx),
-        readonly(np.full(k, t)),
-        readonly(rssi),
-    )
+from tests.gcs.claims import noisy_claim as _claim
 
 
 def test_grid_posterior_finds_the_transmitter() -> None:

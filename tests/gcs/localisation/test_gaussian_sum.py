@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from ridsafe.common.ellipsoid import mahalanobis2
-from ridsafe.common.pathloss import DB_PER_LN, received_power_dbm
+from ridsafe.common.pathloss import DB_PER_LN
 from ridsafe.gcs.initiation.grid import GridSeed, grid_posterior
 from ridsafe.gcs.localisation import mixture_kernels
 from ridsafe.gcs.localisation.gaussian_sum import (
@@ -16,28 +16,10 @@ from ridsafe.gcs.localisation.gaussian_sum import (
     moment_match,
     moment_match_reference,
 )
-from ridsafe.gcs.pipeline_api import ObservedClaim, readonly
 from ridsafe.gcs.pipeline_config import PipelineConfig
 from ridsafe.gcs.tracking import imm
 from ridsafe.gcs.tracking.imm import Gaussian, ImmState
-
-
-def _claim(
-    t: float, p: np.ndarray, rx: np.ndarray, rng: np.random.Generator, sigma: float = 1.0
-) -> ObservedClaim:
-    d = np.linalg.norm(rx - p, axis=1)
-    rssi = received_power_dbm(20.0, d) + rng.normal(0, sigma, rx.shape[0])
-    k = rx.shape[0]
-    return ObservedClaim(
-        "S",
-        t,
-        readonly(p),
-        None,
-        np.arange(1, k + 1),
-        readonly(rx),
-        readonly(np.full(k, t)),
-        readonly(rssi),
-    )
+from tests.gcs.claims import noisy_claim as _claim
 
 
 def test_huber_split_preserves_the_first_two_moments() -> None:
