@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import random
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from ridsafe.common.codec import SigningConfig
@@ -81,21 +82,34 @@ class FuzzRun:
             raise ValueError(f"unknown core {target!r}; expected one of {CORES}")
         return target
 
-    def fuzz_core(self, target: str, n: int, rng: random.Random) -> FuzzReport:
-        """Feed ``n`` mutated datagrams to ``target`` at the paused time (module docstring)."""
+    def fuzz_core(
+        self,
+        target: str,
+        n: int,
+        rng: random.Random,
+        progress: Callable[[FuzzReport], None] | None = None,
+        progress_every: int = 100_000,
+    ) -> FuzzReport:
+        """Feed ``n`` mutated datagrams to ``target`` at the paused time (module docstring);
+        ``progress`` is handed the report so far every ``progress_every`` inputs."""
         name = self.core_name(target)
         core = self.run.router.cores[name]
-        pool = [(endpoint, data) for endpoint, data in self.seeds[name] if data]
+        pool = [
+            (endpoint, data, self.signing if endpoint.startswith(_KEYED_ENDPOINTS) else None)
+            for endpoint, data in self.seeds[name]
+            if data
+        ]  # the signing of each seed's link looked up once, not per input
         if not pool:
             raise ValueError(f"no datagrams captured for {name}: warm up longer")
         mutator, report, now_s = Mutator(rng), FuzzReport(target), self.run.t_s
         start = time.perf_counter()
-        for _ in range(n):
-            endpoint, seed = rng.choice(pool)
-            other = rng.choice(pool)[1]
-            keyed = endpoint.startswith(_KEYED_ENDPOINTS)
-            data = mutator.mutate(seed, other, self.signing if keyed else None)
+        for k in range(1, n + 1):
+            endpoint, seed, signing = rng.choice(pool)
+            data = mutator.mutate(seed, rng.choice(pool)[1], signing)
             self._call(report, core, now_s, [(endpoint, data)])
+            if progress is not None and k % progress_every == 0 and k < n:
+                report.inputs, report.seconds = k, time.perf_counter() - start
+                progress(report)
         report.inputs, report.seconds = n, time.perf_counter() - start
         return report
 
