@@ -5,7 +5,8 @@ Per core (sim, companion, GCS): a fresh lockstep run of the scenario is warmed u
 ``--warm-s`` (its datagrams are the seeds), the core gets ``--inputs`` mutated datagrams
 (bytes and field values, CRC and signature recomputed) at the paused time, and the run goes
 on clean to the scenario's end. Printed per core: inputs/s, crashes (exceptions out of
-``handle``), calls over 100 ms, hangs (over 1 s), the slowest call, and whether the core
+``handle``), calls over 100 ms and hangs (over 1 s) of CPU time, the slowest call (CPU and
+wall time: on a shared machine the wall time holds waits for a CPU too), and whether the core
 still works; with ``--progress N`` also a line every N inputs. ``--workers K`` runs the
 cores' campaigns in K processes at once (one process per core: each core gets all of its
 inputs in one instance, so "still works" is judged after the whole campaign).
@@ -56,6 +57,8 @@ def main(argv: list[str] | None = None) -> int:
         print(_line(report, check_s), flush=True)
         for crash in report.first_crashes:
             print(f"    crash: {crash}")
+        for slow in report.first_slow:
+            print(f"    slow: {slow}")
         failed |= bool(report.crashes or report.hangs or report.slow_calls)
         failed |= not report.still_works
     return 1 if failed else 0
@@ -80,7 +83,8 @@ def _progress(report: FuzzReport) -> str:
     return (
         f"  {report.core:9s} {report.inputs:>9,d} so far ({report.inputs_per_s:,.0f}/s)  "
         f"crashes {report.crashes}  calls >100 ms {report.slow_calls}  "
-        f"hangs {report.hangs}  slowest {report.slowest_ms:.1f} ms"
+        f"hangs {report.hangs}  slowest {report.slowest_ms:.1f} ms CPU "
+        f"({report.slowest_wall_ms:.1f} ms wall, {report.slow_calls_wall} calls >100 ms wall)"
     )
 
 
@@ -89,7 +93,8 @@ def _line(report: FuzzReport, check_s: float) -> str:
         f"{report.core:9s} {report.inputs:>9,d} inputs in {report.seconds:7.1f} s "
         f"({report.inputs_per_s:8,.0f}/s)  crashes {report.crashes}  "
         f"calls >100 ms {report.slow_calls}  hangs {report.hangs}  "
-        f"slowest {report.slowest_ms:6.1f} ms  still works: {report.still_works} "
+        f"slowest {report.slowest_ms:6.1f} ms CPU  (wall: slowest {report.slowest_wall_ms:.1f} ms, "
+        f"{report.slow_calls_wall} calls >100 ms)  still works: {report.still_works} "
         f"({report.job}; checked in {check_s:.1f} s)"
     )
 

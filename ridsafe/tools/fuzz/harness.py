@@ -7,7 +7,8 @@
    ``companion``, ``gcs``) is fed ``n`` mutated datagrams (``mutate.Mutator``; signed with
    the run's key on keyed links), one ``handle`` call each at the paused time; what it sends
    is dropped (as if lost). Counted: crashes (an exception out of ``handle``), calls over
-   ``SLOW_CALL_MS`` (100 ms) and over ``HANG_CALL_MS`` (1 s), the slowest call.
+   ``SLOW_CALL_MS`` (100 ms) and over ``HANG_CALL_MS`` (1 s) of the thread's CPU time, the
+   slowest call; wall times beside them (``_call`` says why CPU time judges).
 3. **Still works** (``finish_and_check``): the whole run goes on, clean, to the scenario's
    end; the fuzzed core must still do its job: the sim still flies (telemetry reaches every
    companion after the campaign), the companion still plans (decisions after the campaign,
@@ -43,10 +44,13 @@ class FuzzReport:
     inputs: int = 0
     seconds: float = 0.0
     crashes: int = 0
-    slow_calls: int = 0  # over SLOW_CALL_MS
-    hangs: int = 0  # over HANG_CALL_MS
-    slowest_ms: float = 0.0
+    slow_calls: int = 0  # CPU time over SLOW_CALL_MS
+    hangs: int = 0  # CPU time over HANG_CALL_MS
+    slowest_ms: float = 0.0  # CPU time of the slowest call
+    slow_calls_wall: int = 0  # wall time over SLOW_CALL_MS (preemption included)
+    slowest_wall_ms: float = 0.0
     first_crashes: list[str] = field(default_factory=list)
+    first_slow: list[str] = field(default_factory=list)  # the first slow calls' inputs
     still_works: bool | None = None
     job: str = ""
 
@@ -114,17 +118,26 @@ class FuzzRun:
         return report
 
     def _call(self, report: FuzzReport, core: SansIoCore, now_s: float, inbound: Datagrams) -> None:
-        t0 = time.perf_counter()
+        """One ``handle`` call, timed twice: the thread's CPU time judges slow calls and hangs
+        (the core's own work), the wall time is reported beside it (on a shared machine it
+        also holds the time the process waited for a CPU)."""
+        t0, cpu0 = time.perf_counter(), time.thread_time()
         try:
             core.handle(now_s, inbound)
         except Exception as exc:  # what the campaign is looking for: counted, kept
             report.crashes += 1
             if len(report.first_crashes) < 5:
                 report.first_crashes.append(f"{type(exc).__name__}: {exc}")
-        elapsed_ms = (time.perf_counter() - t0) * 1e3
-        report.slowest_ms = max(report.slowest_ms, elapsed_ms)
-        report.slow_calls += elapsed_ms > SLOW_CALL_MS
-        report.hangs += elapsed_ms > HANG_CALL_MS
+        cpu_ms = (time.thread_time() - cpu0) * 1e3
+        wall_ms = (time.perf_counter() - t0) * 1e3
+        report.slowest_ms = max(report.slowest_ms, cpu_ms)
+        report.slowest_wall_ms = max(report.slowest_wall_ms, wall_ms)
+        report.slow_calls += cpu_ms > SLOW_CALL_MS
+        report.hangs += cpu_ms > HANG_CALL_MS
+        report.slow_calls_wall += wall_ms > SLOW_CALL_MS
+        if cpu_ms > SLOW_CALL_MS and len(report.first_slow) < 5:
+            endpoint, data = inbound[0]
+            report.first_slow.append(f"{cpu_ms:.0f} ms CPU on {endpoint}: {data[:48].hex()}")
 
     def finish_and_check(self, report: FuzzReport) -> FuzzReport:
         """Run on, clean, to the end; judge whether the fuzzed core still does its job."""
