@@ -30,7 +30,7 @@ from ridsafe.tools.fuzz.mutate import Mutator
 from ridsafe.tools.run import lockstep
 from ridsafe.tools.run.scenario import ScenarioFile
 
-__all__ = ["CORES", "SLOW_CALL_MS", "FuzzReport", "FuzzRun", "warm_up"]
+__all__ = ["CORES", "SLOW_CALL_MS", "FuzzReport", "FuzzRun", "keyed_signing", "warm_up"]
 
 SLOW_CALL_MS = 100.0
 HANG_CALL_MS = 1000.0
@@ -99,7 +99,7 @@ class FuzzRun:
         name = self.core_name(target)
         core = self.run.router.cores[name]
         pool = [
-            (endpoint, data, self.signing if endpoint.startswith(_KEYED_ENDPOINTS) else None)
+            (endpoint, data, keyed_signing(self, endpoint))
             for endpoint, data in self.seeds[name]
             if data
         ]  # the signing of each seed's link looked up once, not per input
@@ -166,6 +166,11 @@ class FuzzRun:
             report.job = f"{new_cycles} cycles, {new_regions} regions after the campaign"
         report.job += f"; missions {phases}"
         return report
+
+
+def keyed_signing(fuzz_run: FuzzRun, endpoint: str) -> SigningConfig | None:
+    """The signing an attacker with the key uses on ``endpoint``: the run's on keyed links."""
+    return fuzz_run.signing if endpoint.startswith(_KEYED_ENDPOINTS) else None
 
 
 def warm_up(loaded: ScenarioFile, planner: str, warm_s: float) -> FuzzRun:
