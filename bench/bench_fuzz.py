@@ -7,9 +7,12 @@ Per core (sim, companion, GCS): a fresh lockstep run of the scenario is warmed u
 on clean to the scenario's end. Printed per core: inputs/s, crashes (exceptions out of
 ``handle``), calls over 100 ms and hangs (over 1 s) of CPU time, the slowest call (CPU and
 wall time: on a shared machine the wall time holds waits for a CPU too), and whether the core
-still works; with ``--progress N`` also a line every N inputs. ``--workers K`` runs the
-cores' campaigns in K processes at once (one process per core: each core gets all of its
-inputs in one instance, so "still works" is judged after the whole campaign).
+still works; with ``--progress N`` also a line every N inputs. ``--batch B`` hands the core
+B datagrams per ``handle`` call, as a UDP runner does with what arrived since its last step
+(slow calls are then counted per call, which bounds each input's time from above).
+``--workers K`` runs the cores' campaigns in K processes at once (one process per core:
+each core gets all of its inputs in one instance, so "still works" is judged after the
+whole campaign).
 
 Run: ``.venv/bin/python bench/bench_fuzz.py [--inputs 1000000] [--cores sim,gcs] [--seed 0]
 [--workers 2]``. Exit status 1 if any core crashed, hung, was slow or stopped working.
@@ -39,11 +42,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--planner", default="aware")
     parser.add_argument("--workers", type=int, default=1, help="processes, one core each")
     parser.add_argument("--progress", type=int, default=0, help="a line every N inputs")
+    parser.add_argument("--batch", type=int, default=1, help="datagrams per handle call")
     args = parser.parse_args(argv)
     if args.workers < 1:
         parser.error(f"--workers must be at least 1, got {args.workers}")
-    jobs = [(args.config, args.planner, args.warm_s, c, args.inputs, args.seed, args.progress)
-            for c in args.cores.split(",")]  # fmt: skip
+    if args.batch < 1:
+        parser.error(f"--batch must be at least 1, got {args.batch}")
+    jobs = [(args.config, args.planner, args.warm_s, c, args.inputs, args.seed, args.progress,
+             args.batch) for c in args.cores.split(",")]  # fmt: skip
     start = time.perf_counter()
     if args.workers == 1:
         results = [_campaign(*job) for job in jobs]
@@ -65,13 +71,20 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _campaign(
-    config: str | None, planner: str, warm_s: float, core: str, n: int, seed: int, every: int
+    config: str | None,
+    planner: str,
+    warm_s: float,
+    core: str,
+    n: int,
+    seed: int,
+    every: int,
+    batch: int,
 ) -> tuple[FuzzReport, float]:
     """One core's campaign in this process: warm up, fuzz, run on clean and check."""
     logging.disable(logging.ERROR)  # the cores log every rejection; the counts are the point
     fuzz_run = warm_up(load_scenario_file(config), planner, warm_s)
     progress = (lambda r: print(_progress(r), flush=True)) if every > 0 else None
-    report = fuzz_run.fuzz_core(core, n, random.Random(seed), progress, max(every, 1))
+    report = fuzz_run.fuzz_core(core, n, random.Random(seed), progress, max(every, 1), batch)
     start = time.perf_counter()
     fuzz_run.finish_and_check(report)
     check_s = time.perf_counter() - start
