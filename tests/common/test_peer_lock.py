@@ -117,6 +117,9 @@ def test_random_bytes_sprayed_at_the_sim_port_do_not_reduce_the_companions_telem
         assert lock.address == sprayed.companion.local_address
         assert lock.switches == 0 and lock.foreign >= 21 * 100
         assert sprayed.port.destination == sprayed.companion.local_address
+        # and every datagram the lock dropped is in the sim's /app/counters too
+        counters = sprayed.runner.core.counter_values()  # type: ignore[attr-defined]
+        assert counters["not_from_locked_peer"] == lock.foreign
     finally:
         sprayed.close()
         attacker.close()
