@@ -42,6 +42,7 @@ COMPANION_BASE, GCS_OUT_BASE, GCS_PORT = 36760, 36550, 36450  # apart from test_
 SIM_PORTS = [COMPANION_BASE + 10 * k for k in range(4)] + [GCS_OUT_BASE + 10 * k for k in range(4)]
 SPEED, SEED = 4.0, 0
 PER_APP = 50_000  # datagrams at each app's ports
+BURST = 25  # datagrams per app between two 1 ms pauses
 ALERT_SLACK_S = 5.0
 # The spray starts once the sim reports every aircraft airborne (the companions have locked
 # their ports). Earlier, a sprayer that sends MAVLink with a companion's ids before the
@@ -143,9 +144,10 @@ class Sprayer:
         targets = {"sim": SIM_PORTS, "gcs": [GCS_PORT], "companion": companion_ports}
         cases = _one_datagram_cases()
         with UdpEndpoint() as sock:
+            bursts = 0
             while not self.stop.is_set() and min(self.sent.values()) < PER_APP:
                 for app, ports in targets.items():
-                    for _ in range(5):
+                    for _ in range(BURST):
                         if self.sent[app] >= PER_APP or not ports:
                             break
                         if rng.random() < 0.5:
@@ -155,9 +157,11 @@ class Sprayer:
                             data = mutator.mutate(rng.choice(self.seeds), rng.choice(self.seeds))
                         sock.send(data, ("127.0.0.1", rng.choice(ports)))
                         self.sent[app] += 1
-                for app, data in cases:
-                    for port in targets[app]:
-                        sock.send(data, ("127.0.0.1", port))
+                if bursts % 20 == 0:
+                    for app, data in cases:
+                        for port in targets[app]:
+                            sock.send(data, ("127.0.0.1", port))
+                bursts += 1
                 self.stop.wait(0.001)
 
 
