@@ -76,8 +76,9 @@ class FuzzRun:
 
     run: lockstep.Lockstep
     seeds: dict[str, Datagrams]
-    signing: SigningConfig | None
+    signing: SigningConfig | None  # the GCS links'
     duration_s: float
+    autopilot_signing: SigningConfig | None = None  # with ``run.sign_autopilot_links``
 
     def core_name(self, target: str) -> str:
         if target == "companion":
@@ -181,8 +182,13 @@ class FuzzRun:
 
 
 def keyed_signing(fuzz_run: FuzzRun, endpoint: str) -> SigningConfig | None:
-    """The signing an attacker with the key uses on ``endpoint``: the run's on keyed links."""
-    return fuzz_run.signing if endpoint.startswith(_KEYED_ENDPOINTS) else None
+    """The signing an attacker with the key uses on ``endpoint``: the run's on keyed links
+    (the GCS links; the autopilot links too when they are signed)."""
+    if endpoint.startswith(_KEYED_ENDPOINTS):
+        return fuzz_run.signing
+    if endpoint == "autopilot" or endpoint.endswith("/companion"):
+        return fuzz_run.autopilot_signing
+    return None
 
 
 def warm_up(loaded: ScenarioFile, planner: str, warm_s: float) -> FuzzRun:
@@ -196,4 +202,6 @@ def warm_up(loaded: ScenarioFile, planner: str, warm_s: float) -> FuzzRun:
     while run.t_s < warm_s - 1e-9:
         run.step()
     run.router.cores.update(originals)
-    return FuzzRun(run, seeds, lockstep.lockstep_signing(loaded), loaded.scenario.duration_s)
+    signing = lockstep.lockstep_signing(loaded)
+    autopilot_signing = lockstep.lockstep_autopilot_signing(loaded)
+    return FuzzRun(run, seeds, signing, loaded.scenario.duration_s, autopilot_signing)

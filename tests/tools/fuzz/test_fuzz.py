@@ -79,3 +79,17 @@ def _drops_counted(shell: AppShell) -> int:
     """What the shell publishes in ``/app/counters`` as dropped or refused, summed."""
     refused = shell.counters.unknown_endpoint + sum(shell.counters.refused.values())
     return shell.link_totals().dropped + refused
+
+
+def test_with_signed_autopilot_links_a_campaign_on_the_sim_is_signed_and_survived() -> None:
+    overrides = {**SHORT, "run.sign_autopilot_links": True}
+    fuzz_run = warm_up(load_scenario_file(None, overrides), "aware", WARM_S)
+    assert fuzz_run.autopilot_signing is not None
+    ports = [e.link for name, e in fuzz_run.run.sim.shell.endpoints.items() if "companion" in name]
+    before = sum(link.counters.accepted for link in ports)
+    report = fuzz_run.fuzz_core("sim", 600, random.Random(15))
+    # the field mutations, signed with the key, pass the signature check to the handlers
+    assert sum(link.counters.accepted for link in ports) > before + 50
+    fuzz_run.finish_and_check(report)
+    assert report.crashes == 0, report.first_crashes
+    assert report.still_works, report.job
