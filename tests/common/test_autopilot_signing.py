@@ -11,7 +11,7 @@ import pytest
 from ridsafe.common import codec
 from ridsafe.common import messages as m
 from ridsafe.common.logsink import NullSink
-from ridsafe.common.udp import UdpEndpoint
+from ridsafe.common.udp import Address, UdpEndpoint
 from ridsafe.companion.mission import Phase
 from ridsafe.sim_backend.world import EndpointKind, endpoint_name
 from ridsafe.tools.run import lockstep
@@ -37,15 +37,19 @@ def _early_impostor(signing: codec.SigningConfig | None) -> tuple[SimOverUdp, Ud
     return sim, impostor
 
 
+def _peer(sim: SimOverUdp) -> Address | None:
+    """The sim port's locked peer now."""
+    return sim.runner.locks["v1/companion"].address
+
+
 @pytest.mark.udp
 def test_with_a_key_an_early_unsigned_impostor_never_wins_the_port() -> None:
     sim, impostor = _early_impostor(KEY)
     try:
         sim.run(1.5)
-        lock = sim.runner.locks["v1/companion"]
-        assert lock.address is None  # nothing signed yet: no peer
+        assert _peer(sim) is None  # nothing signed yet: no peer
         telemetry = sim.run(5.0)
-        assert lock.address == sim.companion.local_address
+        assert _peer(sim) == sim.companion.local_address
         assert sim.port.destination == sim.companion.local_address
         counters = sim.backend.counter_values()
         assert counters["not_from_locked_peer"] > 0  # the impostor, dropped and counted

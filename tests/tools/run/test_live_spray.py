@@ -44,6 +44,11 @@ SPEED, SEED = 4.0, 0
 PER_APP = 50_000  # datagrams at each app's ports
 BURST = 25  # datagrams per app between two 1 ms pauses
 ALERT_SLACK_S = 5.0
+DROPS = {  # the counters of what an app dropped or refused (links, shell, runner)
+    *("bad_data", "truncated", "unknown_id", "invalid_value", "rejected_signature"),
+    *("unknown_endpoint", "foreign_system", "other_component", "bad_sysid"),
+    *("not_from_locked_peer", "not_from_remote"),
+}
 # The spray starts once the sim reports every aircraft airborne (the companions have locked
 # their ports). Earlier, a sprayer that sends MAVLink with a companion's ids before the
 # companion itself would be locked as the sim port's peer: without signing on that link
@@ -167,11 +172,9 @@ class Sprayer:
 
 def _drops(counters: dict[str, int]) -> int:
     """What an app's ``/app/counters`` record says it dropped or refused, summed."""
-    dropped = ("bad_data", "truncated", "unknown_id", "invalid_value", "rejected_signature")
     total = 0
     for key, value in counters.items():
-        name = key.rsplit(".", 1)[-1].removeprefix("link_")
-        if name in dropped or name == "unknown_endpoint" or " " in key:  # refusal reasons
+        if key.rsplit(".", 1)[-1].removeprefix("link_") in DROPS:
             total += value
     return total
 
