@@ -52,7 +52,8 @@ DROPS = {  # the counters of what an app dropped or refused (links, shell, runne
 # The spray starts once the sim reports every aircraft airborne (the companions have locked
 # their ports). Earlier, a sprayer that sends MAVLink with a companion's ids before the
 # companion itself would be locked as the sim port's peer: without signing on that link
-# nothing tells them apart (see common/peer_lock.py).
+# nothing tells them apart (see common/peer_lock.py); with ``run.sign_autopilot_links`` it
+# cannot (tests/common/test_autopilot_signing.py).
 
 
 def _run(out: Path) -> subprocess.Popen[str]:
