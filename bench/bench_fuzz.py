@@ -95,7 +95,8 @@ def _campaign(
 def _progress(report: FuzzReport) -> str:
     return (
         f"  {report.core:9s} {report.inputs:>9,d} so far ({report.inputs_per_s:,.0f}/s)  "
-        f"crashes {report.crashes}  calls >100 ms {report.slow_calls}  "
+        f"crashes {report.crashes}  calls >100 ms {report.slow_calls} "
+        f"({report.slow_calls_gc} only by gc)  "
         f"hangs {report.hangs}  slowest {report.slowest_ms:.1f} ms CPU "
         f"({report.slowest_wall_ms:.1f} ms wall, {report.slow_calls_wall} calls >100 ms wall)"
     )
@@ -105,7 +106,8 @@ def _line(report: FuzzReport, check_s: float) -> str:
     return (
         f"{report.core:9s} {report.inputs:>9,d} inputs in {report.seconds:7.1f} s "
         f"({report.inputs_per_s:8,.0f}/s)  crashes {report.crashes}  "
-        f"calls >100 ms {report.slow_calls}  hangs {report.hangs}  "
+        f"calls >100 ms {report.slow_calls} ({report.slow_calls_gc} only by gc)  "
+        f"hangs {report.hangs}  "
         f"slowest {report.slowest_ms:6.1f} ms CPU  (wall: slowest {report.slowest_wall_ms:.1f} ms, "
         f"{report.slow_calls_wall} calls >100 ms)  still works: {report.still_works} "
         f"({report.job}; checked in {check_s:.1f} s)"

@@ -18,6 +18,7 @@
 
 from __future__ import annotations
 
+import gc
 import random
 import time
 from collections.abc import Callable
@@ -48,6 +49,7 @@ class FuzzReport:
     hangs: int = 0  # CPU time over HANG_CALL_MS
     slowest_ms: float = 0.0  # CPU time of the slowest call
     slow_calls_wall: int = 0  # wall time over SLOW_CALL_MS (preemption included)
+    slow_calls_gc: int = 0  # slow calls that are slow only by a garbage collection in them
     slowest_wall_ms: float = 0.0
     first_crashes: list[str] = field(default_factory=list)
     first_slow: list[str] = field(default_factory=list)  # the first slow calls' inputs
@@ -68,6 +70,27 @@ class _Recorder:
     def handle(self, now_s: float, inbound: Datagrams) -> Datagrams:
         self.into.extend(inbound)
         return self.core.handle(now_s, inbound)
+
+
+class _GcTimer:
+    """The CPU time the interpreter's garbage collections took since the last ``take_ms``
+    (a generation-2 collection walks every object of the process, whatever the input)."""
+
+    installed: _GcTimer | None = None
+
+    def __init__(self) -> None:
+        self._start_s = 0.0
+        self._total_s = 0.0
+
+    def __call__(self, phase: str, info: dict[str, int]) -> None:
+        if phase == "start":
+            self._start_s = time.thread_time()
+        else:
+            self._total_s += time.thread_time() - self._start_s
+
+    def take_ms(self) -> float:
+        total, self._total_s = self._total_s, 0.0
+        return total * 1e3
 
 
 @dataclass
@@ -130,10 +153,20 @@ class FuzzRun:
         report.inputs, report.seconds = n, time.perf_counter() - start
         return report
 
+    @property
+    def _gc_timer(self) -> _GcTimer:
+        timer = _GcTimer.installed
+        if timer is None:
+            timer = _GcTimer.installed = _GcTimer()
+            gc.callbacks.append(timer)
+        return timer
+
     def _call(self, report: FuzzReport, core: SansIoCore, now_s: float, inbound: Datagrams) -> None:
         """One ``handle`` call, timed twice: the thread's CPU time judges slow calls and hangs
         (the core's own work), the wall time is reported beside it (on a shared machine it
-        also holds the time the process waited for a CPU)."""
+        also holds the time the process waited for a CPU); the garbage collections inside
+        the call are timed too, so a call slow only by one is told apart."""
+        self._gc_timer.take_ms()  # collections before the call are not the call's
         t0, cpu0 = time.perf_counter(), time.thread_time()
         try:
             core.handle(now_s, inbound)
@@ -147,10 +180,14 @@ class FuzzRun:
         report.slowest_wall_ms = max(report.slowest_wall_ms, wall_ms)
         report.slow_calls += cpu_ms > SLOW_CALL_MS
         report.hangs += cpu_ms > HANG_CALL_MS
+        gc_ms = self._gc_timer.take_ms()
+        report.slow_calls_gc += cpu_ms > SLOW_CALL_MS >= cpu_ms - gc_ms
         report.slow_calls_wall += wall_ms > SLOW_CALL_MS
         if cpu_ms > SLOW_CALL_MS and len(report.first_slow) < 5:
             endpoint, data = inbound[0]
-            report.first_slow.append(f"{cpu_ms:.0f} ms CPU on {endpoint}: {data[:48].hex()}")
+            report.first_slow.append(
+                f"{cpu_ms:.0f} ms CPU ({gc_ms:.0f} ms of it in gc) on {endpoint}: {data[:48].hex()}"
+            )
 
     def finish_and_check(self, report: FuzzReport) -> FuzzReport:
         """Run on, clean, to the end; judge whether the fuzzed core still does its job."""
