@@ -7,13 +7,15 @@ calls the core once with everything that arrived, and sends what the core return
 live here and nowhere else.
 
 An endpoint with a fixed remote (``udpout``) always sends there, and takes datagrams from
-there only (others are dropped, counted in ``foreign_dropped``: a local process cannot talk
-to a companion through its ephemeral port). One without (``udpin``) replies to its peer:
-with a core that can vet senders (``valid_senders(name, data)``, as ``AppShell`` does) the
-peer is earned by a genuine frame and locked (``common.peer_lock``: datagrams from other
-addresses are dropped and counted, and the peer switches only after ``switch_after_s`` of
-silence); with a core that cannot, the last address heard (pymavlink's rule). Until a peer
-is known, what the core sends there is counted in ``unsent_no_peer`` and dropped, as a
+there only (others are dropped, counted in ``foreign_dropped`` and, as ``not_from_remote``,
+in the core's refused counters: a local process cannot talk to a companion through its
+ephemeral port). One without (``udpin``) replies to its peer: with a core that can vet
+senders (``valid_senders(name, data)``, as ``AppShell`` does) the peer is earned by a
+genuine frame and locked (``common.peer_lock``: datagrams from other addresses are dropped
+and counted, as ``not_from_locked_peer`` in the core's counters too, and the peer switches
+only after ``switch_after_s`` of silence); with a core that cannot, the last address heard
+(pymavlink's rule). Until a peer is known, what the core sends there is counted in
+``unsent_no_peer`` and dropped, as a
 serial port with nothing attached would drop it.
 
 A multi-peer endpoint (named in ``multi_peer``) is one socket that many peers talk to, like
@@ -34,7 +36,7 @@ from typing import Protocol
 
 from ridsafe.common.errors import UdpError
 from ridsafe.common.peer_lock import DEFAULT_SWITCH_AFTER_S, PeerLock
-from ridsafe.common.shell import Datagrams, SansIoCore
+from ridsafe.common.shell import AppShell, Datagrams, SansIoCore
 from ridsafe.common.udp import Address, UdpEndpoint
 
 logger = logging.getLogger(__name__)
@@ -95,6 +97,7 @@ class UdpRunner:
             self._selector.register(endpoint.fileno(), selectors.EVENT_READ, name)
         vet = getattr(core, "valid_senders", None)
         self._vet: Callable[[str, bytes], set[tuple[int, int]]] | None = vet
+        self._count_foreign = _foreign_counter(core)
         self.locks: dict[str, PeerLock] = {}
         if vet is not None:
             for name, endpoint in self.endpoints.items():
@@ -137,6 +140,8 @@ class UdpRunner:
             for data, addr in endpoint.recv_all():
                 if not self._admit(now_s, name, endpoint, data, addr):
                     self.stats.foreign_dropped += 1
+                    if self._count_foreign is not None:
+                        self._count_foreign(name, _foreign_reason(endpoint))
                     continue
                 inbound.append((self._peer_name(name, addr) if multi else name, data))
         self.stats.datagrams_in += len(inbound)
@@ -214,3 +219,17 @@ def parse_peer(peer: str) -> Address | None:
     except ValueError:
         return None
     return host, int(port)
+
+
+def _foreign_counter(core: SansIoCore) -> Callable[[str, str], None] | None:
+    """Where the core counts what the runner drops before it (for ``/app/counters``): its
+    own ``count_foreign(name, reason)``, else its ``AppShell``'s, else nowhere."""
+    counter = getattr(core, "count_foreign", None)
+    if callable(counter):
+        return counter  # type: ignore[no-any-return]
+    shell = getattr(core, "shell", None)
+    return shell.count_foreign if isinstance(shell, AppShell) else None
+
+
+def _foreign_reason(endpoint: UdpEndpoint) -> str:
+    return "not_from_remote" if endpoint.remote is not None else "not_from_locked_peer"

@@ -263,6 +263,11 @@ class AppShell:
         what = f"{type(received.message).__name__} from {sender} on {endpoint.name}"
         self._count_refused(reason, what)
 
+    def count_foreign(self, name: str, reason: str) -> None:
+        """Count a datagram the runner dropped before the core (``common.runner``: not from
+        the endpoint's locked peer or fixed remote) as refused for ``reason``."""
+        self._count_refused(reason, f"datagram on {name!r}")
+
     def _count_refused(self, reason: str, what: str) -> None:
         count = self.counters.refused.get(reason, 0) + 1
         self.counters.refused[reason] = count

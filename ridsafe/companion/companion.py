@@ -92,13 +92,16 @@ class Companion:
         signing: codec.SigningConfig | None = None,
         receiver: RidReceiver | None = None,
         frame_decoder: RidFrameDecoder | None = None,
+        autopilot_signing: codec.SigningConfig | None = None,
     ) -> None:
+        """``signing``: the GCS link's MAVLink 2 signing; ``autopilot_signing``: the
+        autopilot link's (optional, as ArduPilot's; default unsigned)."""
         self.spec = spec
         self.config = config
         self.sink = sink
         sysid = spec.sysid
         self.shell = AppShell(f"companion/{sysid}")
-        own_link = codec.MavlinkLink(sysid, COMPANION_COMPONENT)
+        own_link = codec.MavlinkLink(sysid, COMPANION_COMPONENT, autopilot_signing)
         accept = from_system(sysid, (AUTOPILOT_COMPONENT, TRANSPONDER_COMPONENT))
         self.shell.add(Endpoint(AUTOPILOT, own_link, accept=accept))
         self.shell.add(Endpoint(GCS, codec.MavlinkLink(sysid, COMPANION_COMPONENT, signing)))

@@ -25,6 +25,7 @@ from ridsafe.companion.rid import Periodic
 from ridsafe.companion.telemetry import OwnTelemetry, ReceiverFix
 
 __all__ = [
+    "MAX_PENDING_OBSERVATIONS",
     "ObservationBatcher",
     "ObservationCounters",
     "ObservationReporter",
@@ -51,6 +52,7 @@ class ObservationCounters:
     unknown_rid_timestamp: int = 0  # reported with timestamp 0xFFFF
     batches: int = 0
     sent_before_gcs_seen: int = 0
+    batch_full: int = 0  # dropped: the pending batch already held MAX_PENDING_OBSERVATIONS
 
 
 def make_observation(
@@ -84,6 +86,12 @@ def make_observation(
     )
 
 
+#: At most this many observations wait for one batch: a flood of RID frames (or a paused
+#: clock) must not grow a companion's memory and its garbage collections without bound. A
+#: real batch holds a few hundred at most (64 transmitters at 4 Hz over 0.5 s is 128).
+MAX_PENDING_OBSERVATIONS = 4096
+
+
 @dataclass
 class ObservationBatcher:
     """Collects observations and releases them once per ``period_s``, in arrival order."""
@@ -108,6 +116,9 @@ class ObservationBatcher:
         made = make_observation(loc, heard, fix, t_s, max_extrapolation_s)
         if isinstance(made, str):
             self._skip(made, loc)
+            return
+        if len(self._pending) >= MAX_PENDING_OBSERVATIONS:
+            self._skip("batch_full", loc)
             return
         if loc.timestamp_s is None:
             self.counters.unknown_rid_timestamp += 1

@@ -131,8 +131,14 @@ class SimBackend:
         config: SimConfig | None = None,
         kinds: Iterable[EndpointKind] = (EndpointKind.COMPANION, EndpointKind.GCS),
         sink: LogSink | None = None,
+        companion_signing: codec.SigningConfig | None = None,
     ) -> None:
+        """``companion_signing``: MAVLink 2 signing on the companion ports, as ArduPilot
+        does with a key set (``SETUP_SIGNING``): what the autopilot and its transponder send
+        there is signed, and only frames with a valid signature are taken (so only they
+        can earn the port's peer lock). Default: unsigned."""
         self.scenario = scenario
+        self.companion_signing = companion_signing
         self.config = config if config is not None else SimConfig()
         self.sink: LogSink = sink if sink is not None else NullSink()
         self._next_truth_log_s = 0.0
@@ -212,10 +218,14 @@ class SimBackend:
         sends; on the companion link its RID transponder (236) sends too."""
         senders = {}
         accept = None
+        signing = None
         if kind is EndpointKind.COMPANION:  # only the vehicle's own companion (its system id)
-            senders[TRANSPONDER_COMPONENT] = codec.MavlinkLink(sysid, TRANSPONDER_COMPONENT)
+            signing = self.companion_signing
+            senders[TRANSPONDER_COMPONENT] = codec.MavlinkLink(
+                sysid, TRANSPONDER_COMPONENT, signing
+            )
             accept = from_system(sysid)
-        link = codec.MavlinkLink(sysid, AUTOPILOT_COMPONENT)
+        link = codec.MavlinkLink(sysid, AUTOPILOT_COMPONENT, signing)
         name = endpoint_name(sysid, kind)
         endpoint = self.shell.add(Endpoint(name, link, accept=accept, senders=senders))
         rates = self.config.telemetry_hz
@@ -239,6 +249,8 @@ class SimBackend:
         """Consume inbound datagrams, advance to ``now_s``, return outbound datagrams."""
         if not math.isfinite(now_s) or now_s < self.t_s - 1e-9:
             raise ClockError(f"sim time must not go backwards: now {self.t_s} s, asked {now_s} s")
+        if self.companion_signing is not None:
+            self.shell.advance_signing_clocks(now_s)
         samples = self._samples()
         self.shell.dispatch(
             inbound,

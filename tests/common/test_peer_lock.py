@@ -59,16 +59,20 @@ class SimOverUdp:
     socket that sends a heartbeat every tick and counts telemetry, and whatever else the
     test does each tick (``extra``)."""
 
-    def __init__(self) -> None:
+    def __init__(self, signing: codec.SigningConfig | None = None) -> None:
+        """``signing``: the sim's companion port and the companion sign (ArduPilot's way)."""
         self.t_s = 0.0
-        self.backend = SimBackend(scenario(1), SimConfig(), [EndpointKind.COMPANION])
+        self.backend = SimBackend(
+            scenario(1), SimConfig(), [EndpointKind.COMPANION], companion_signing=signing
+        )
         self.port = UdpEndpoint()
         self.runner = UdpRunner(
             self.backend, {"v1/companion": self.port}, MonotonicClock(1.0, self._time), TICK_S
         )
         self.companion = UdpEndpoint(remote=self.port.local_address)
-        self.link = codec.MavlinkLink(*COMPANION_IDS)
-        self.parser = codec.MavlinkLink(255, 190)
+        self.link = codec.MavlinkLink(*COMPANION_IDS, signing)
+        self.parser = codec.MavlinkLink(255, 190, signing)
+        self.speaks = True  # the companion sends its heartbeat each tick
         self.telemetry = 0
         self.extra: Callable[[float], None] = lambda now_s: None
 
@@ -76,7 +80,8 @@ class SimOverUdp:
         return self.t_s
 
     def _tick(self, now_s: float) -> None:
-        self.companion.send(self.link.pack(m.Heartbeat(18, 8, 0, 0, 4)))
+        if self.speaks:
+            self.companion.send(self.link.pack(m.Heartbeat(18, 8, 0, 0, 4)))
         self.extra(now_s)
         time.sleep(0.002)  # loopback delivery before the next drain
         for data, _ in self.companion.recv_all():
@@ -117,6 +122,9 @@ def test_random_bytes_sprayed_at_the_sim_port_do_not_reduce_the_companions_telem
         assert lock.address == sprayed.companion.local_address
         assert lock.switches == 0 and lock.foreign >= 21 * 100
         assert sprayed.port.destination == sprayed.companion.local_address
+        # and every datagram the lock dropped is in the sim's /app/counters too
+        counters = sprayed.runner.core.counter_values()  # type: ignore[attr-defined]
+        assert counters["not_from_locked_peer"] == lock.foreign
     finally:
         sprayed.close()
         attacker.close()

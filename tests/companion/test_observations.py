@@ -19,6 +19,7 @@ from ridsafe.common.heard import HeardRidFrame, RidFrameDecoder
 from ridsafe.common.logsink import MemorySink
 from ridsafe.companion.neighbours import NeighbourTable, claimed_id
 from ridsafe.companion.observations import (
+    MAX_PENDING_OBSERVATIONS,
     UNKNOWN_RID_TIMESTAMP_S,
     ObservationBatcher,
     ObservationReporter,
@@ -196,3 +197,15 @@ def test_a_batch_record_has_the_topics_fields() -> None:
     assert set(topics.TOPICS[topics.OBSERVATIONS][1]) <= set(record)
     (item,) = cast(list[dict[str, float]], record["items"])
     assert math.isclose(item["rssi_dbm"], -60.0)
+
+
+def test_a_flood_of_broadcasts_fills_one_batch_to_its_limit_and_counts_the_rest() -> None:
+    batcher = ObservationBatcher(0.5)
+    fix = ReceiverFix(0.0, 36.0, -86.0, 200.0, (0.0, 0.0, 0.0))
+    extra = 25
+    for _ in range(MAX_PENDING_OBSERVATIONS + extra):  # all at one instant: no batch is due
+        batcher.add(_location(A), _heard(1.0, b"", -60.0), fix, 1.0, 1.0)
+    assert batcher.counters.batch_full == extra
+    assert len(batcher.take_all()) == MAX_PENDING_OBSERVATIONS
+    batcher.add(_location(A), _heard(1.0, b"", -60.0), fix, 1.0, 1.0)  # room again
+    assert batcher.counters.batch_full == extra and len(batcher.take_all()) == 1

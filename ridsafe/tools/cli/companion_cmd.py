@@ -56,6 +56,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--gcs", default=DEFAULT_GCS_CONNECTION, help="GCS connection string")
     parser.add_argument("--signing-key", type=Path, help="MAVLink 2 signing key for the GCS link")
     parser.add_argument(
+        "--autopilot-signing-key", type=Path, help="MAVLink 2 signing key for the autopilot link"
+    )
+    parser.add_argument(
         "--planner", choices=sorted(PLANNERS), help="planner name (default: run.planner)"
     )
     parser.add_argument(
@@ -109,11 +112,13 @@ def build_companions(
     vehicles: Sequence[int],
     sink: LogSink,
     signing: codec.SigningConfig | None,
+    autopilot_signing: codec.SigningConfig | None = None,
 ) -> list[Companion]:
     """The companions of ``vehicles`` with the planner the arguments name (default
     ``run.planner``), built by the factory (``run.cores.make_companions``)."""
     planner = args.planner or loaded.run.planner
-    return list(cores.make_companions(loaded, vehicles, planner, sink, signing).values())
+    built = cores.make_companions(loaded, vehicles, planner, sink, signing, autopilot_signing)
+    return list(built.values())
 
 
 def _connections(
@@ -150,6 +155,7 @@ def run(args: argparse.Namespace) -> int:
         vehicles = parse_vehicles(args.vehicle, len(loaded.scenario.aircraft))
         connections = _connections(args, loaded, vehicles)
         signing = process.signing_from_file(args.signing_key)
+        autopilot_signing = process.signing_from_file(args.autopilot_signing_key)
     except (RidsafeError, ValueError, KeyError, OSError) as exc:
         print(f"ridsafe companion: {exc}", file=sys.stderr)
         return 2
@@ -157,7 +163,7 @@ def run(args: argparse.Namespace) -> int:
         process.open_sink(args.log, loaded.scenario.origin, loaded.run.foxglove_channels)
     )
     try:
-        companions = build_companions(args, loaded, vehicles, sink, signing)
+        companions = build_companions(args, loaded, vehicles, sink, signing, autopilot_signing)
         app = CompanionApp(
             companions,
             connections,

@@ -6,7 +6,9 @@ import argparse
 import dataclasses
 import logging
 import sys
+from pathlib import Path
 
+from ridsafe.common.codec import SigningConfig
 from ridsafe.common.errors import RidsafeError
 from ridsafe.common.logsink import LogSink
 from ridsafe.common.runner import UdpRunner
@@ -33,6 +35,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--vehicles", type=positive_int, help="number of benign vehicles (rescales the scenario)"
     )
     parser.add_argument("--no-spoofer", action="store_true", help="leave the spoofer out")
+    parser.add_argument(
+        "--autopilot-signing-key",
+        type=Path,
+        help="MAVLink 2 signing key of the companion ports (only signed frames are taken)",
+    )
     parser.set_defaults(func=run)
 
 
@@ -48,20 +55,24 @@ def load_from_args(args: argparse.Namespace) -> ScenarioFile:
     return loaded
 
 
-def build_backend(loaded: ScenarioFile, sink: LogSink) -> SimBackend:
+def build_backend(
+    loaded: ScenarioFile, sink: LogSink, autopilot_signing: SigningConfig | None = None
+) -> SimBackend:
     """The sim of a live run (the factory's, with the live endpoints)."""
-    return cores.make_sim_backend(loaded, sink, cores.live_sim_endpoints(loaded))
+    endpoints = cores.live_sim_endpoints(loaded)
+    return cores.make_sim_backend(loaded, sink, endpoints, autopilot_signing)
 
 
 def run(args: argparse.Namespace) -> int:
     try:
         app_args.check_speed(args)
         loaded = load_from_args(args)
+        autopilot_signing = process.signing_from_file(args.autopilot_signing_key)
     except (RidsafeError, ValueError, OSError) as exc:
         print(f"ridsafe sim: {exc}", file=sys.stderr)
         return 2
     sink = process.open_sink(args.log, loaded.scenario.origin, loaded.run.foxglove_channels)
-    backend = build_backend(loaded, sink)
+    backend = build_backend(loaded, sink, autopilot_signing)
     try:
         endpoints = open_endpoints(backend, loaded.sim.ports)
     except OSError as exc:

@@ -15,6 +15,7 @@ Everything is drawn from one ``random.Random``: a seed gives the same inputs.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import math
 import random
@@ -57,8 +58,10 @@ def split_packets(data: bytes) -> list[bytes]:
     return packets
 
 
-def _formats(fmt: str) -> list[str]:
-    """One struct code per unpacked item of a message's format (``"<If3s"`` -> I f s)."""
+@functools.lru_cache(maxsize=512)
+def _formats(fmt: str) -> tuple[str, ...]:
+    """One struct code per unpacked item of a message's format (``"<If3s"`` -> I f s);
+    cached per format, as the campaign asks for the same few formats millions of times."""
     out: list[str] = []
     count = ""
     for char in fmt.lstrip("<>=!@"):
@@ -68,7 +71,7 @@ def _formats(fmt: str) -> list[str]:
         n = int(count) if count else 1
         out.extend([char] if char == "s" else [char] * n)
         count = ""
-    return out
+    return tuple(out)
 
 
 class Mutator:
@@ -78,6 +81,7 @@ class Mutator:
         self.rng = rng
         self._timestamp: int | None = None
         self._signing: SigningConfig | None = None
+        self._packets: dict[bytes, list[bytes]] = {}  # a seed's packets, split once
 
     def mutate(self, seed: bytes, other: bytes, signing: SigningConfig | None = None) -> bytes:
         """One mutated datagram from ``seed`` (``other``: a second seed, for splicing);
@@ -88,7 +92,11 @@ class Mutator:
             # ones' start: fresh to the receiver, the genuine streams' state left alone.
             self._timestamp = signing.initial_timestamp + 10**7
         if self.rng.random() < 0.5:
-            packets = split_packets(seed)
+            packets = self._packets.get(seed)
+            if packets is None:
+                if len(self._packets) > 4096:  # a campaign's seeds are a few thousand
+                    self._packets.clear()
+                packets = self._packets.setdefault(seed, split_packets(seed))
             if packets:
                 return self._mutate_fields(packets)
         return self._mutate_bytes(seed, other)

@@ -53,10 +53,20 @@ def live_sim_endpoints(loaded: ScenarioFile) -> tuple[EndpointKind, ...]:
 
 
 def make_sim_backend(
-    loaded: ScenarioFile, sink: LogSink, endpoints: Iterable[EndpointKind]
+    loaded: ScenarioFile,
+    sink: LogSink,
+    endpoints: Iterable[EndpointKind],
+    autopilot_signing: codec.SigningConfig | None = None,
 ) -> SimBackend:
-    """The sim backend of the scenario (every vehicle, the spoofer included)."""
-    return SimBackend(loaded.scenario, loaded.sim, tuple(endpoints), sink=sink)
+    """The sim backend of the scenario (every vehicle, the spoofer included);
+    ``autopilot_signing`` signs its companion ports (``run.sign_autopilot_links``)."""
+    return SimBackend(
+        loaded.scenario,
+        loaded.sim,
+        tuple(endpoints),
+        sink=sink,
+        companion_signing=autopilot_signing,
+    )
 
 
 def companion_ids(loaded: ScenarioFile) -> Sequence[int]:
@@ -87,13 +97,22 @@ def make_companion(
     sink: LogSink,
     signing: codec.SigningConfig | None,
     frame_decoder: RidFrameDecoder | None = None,
+    autopilot_signing: codec.SigningConfig | None = None,
 ) -> Companion:
     """The companion of benign aircraft ``sysid`` flying with the named planner;
     ``frame_decoder`` is shared by the companions of one process (a broadcast that all of
-    them hear is then decoded once)."""
+    them hear is then decoded once); ``autopilot_signing`` signs its autopilot link."""
     spec = CompanionSpec.from_scenario(loaded.scenario, sysid, loaded.companion.operator_id)
     chosen = make_planner(planner, planner_settings(loaded, sysid))
-    return Companion(spec, loaded.companion, chosen, sink, signing, frame_decoder=frame_decoder)
+    return Companion(
+        spec,
+        loaded.companion,
+        chosen,
+        sink,
+        signing,
+        frame_decoder=frame_decoder,
+        autopilot_signing=autopilot_signing,
+    )
 
 
 def make_companions(
@@ -102,12 +121,14 @@ def make_companions(
     planner: str,
     sink: LogSink,
     signing: codec.SigningConfig | None,
+    autopilot_signing: codec.SigningConfig | None = None,
 ) -> dict[int, Companion]:
     """:func:`make_companion` for each of ``sysids``, by system id (in the given order),
     sharing one RID frame decoder."""
     decoder = RidFrameDecoder()
     return {
-        sysid: make_companion(loaded, sysid, planner, sink, signing, decoder) for sysid in sysids
+        sysid: make_companion(loaded, sysid, planner, sink, signing, decoder, autopilot_signing)
+        for sysid in sysids
     }
 
 

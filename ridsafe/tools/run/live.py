@@ -142,7 +142,9 @@ def children(
 ) -> list[Child]:
     """What a live run starts: the sim, the GCS and the companions in groups, each with the
     effective scenario file, the start instant and a part log (and a fresh signing key for
-    the GCS links when ``run.sign_gcs_links``, written to ``OUT/mavlink.key``)."""
+    the GCS links when ``run.sign_gcs_links``, written to ``OUT/mavlink.key``, and one for
+    the companion <-> autopilot links when ``run.sign_autopilot_links``, in
+    ``OUT/autopilot.key``)."""
     duration = loaded.scenario.duration_s
     common = [str(scenario_path), "--speed", repr(speed), "--duration", repr(duration)]
     common += ["--t0-unix", repr(t0)]
@@ -152,11 +154,18 @@ def children(
         key.write_text(os.urandom(32).hex())
         key.chmod(0o600)
         signing = ["--signing-key", str(key)]
+    autopilot_signing: list[str] = []
+    if loaded.run.sign_autopilot_links:
+        key = out / "autopilot.key"
+        key.write_text(os.urandom(32).hex())
+        key.chmod(0o600)
+        autopilot_signing = ["--autopilot-signing-key", str(key)]
     listen = parse_connection_string(loaded.run.gcs_listen)
     gcs_out = f"udpout:{listen.host}:{listen.port}"
     parts, logs = out / "parts", out / "logs"
     started = [
-        Child("sim", cli_argv("sim", *common, "--log", str(parts / "sim.mcap")),
+        Child("sim", cli_argv("sim", *common, *autopilot_signing,
+                              "--log", str(parts / "sim.mcap")),
               logs / "sim.log"),
         Child("gcs", cli_argv("gcs", *common, "--listen", loaded.run.gcs_listen,
                               *signing, "--log", str(parts / "gcs.mcap")),
@@ -168,7 +177,8 @@ def children(
         name = f"companions-{group[0]}-{group[-1]}"
         argv = cli_argv(
             "companion", *common, "--vehicle", f"{group[0]}-{group[-1]}", "--gcs", gcs_out,
-            "--planner", planner, *signing, "--log", str(parts / f"{name}.mcap"),
+            "--planner", planner, *signing, *autopilot_signing,
+            "--log", str(parts / f"{name}.mcap"),
             "--keep-running",  # landed aircraft keep broadcasting until the run ends
         )  # fmt: skip
         started.append(Child(name, argv, logs / f"{name}.log"))

@@ -78,11 +78,22 @@ def lockstep_signing(loaded: ScenarioFile) -> codec.SigningConfig | None:
     return codec.SigningConfig(key, codec.signing_timestamp_from_unix(loaded.scenario.start_unix_s))
 
 
+def lockstep_autopilot_signing(loaded: ScenarioFile) -> codec.SigningConfig | None:
+    """The companion <-> autopilot links' signing when ``run.sign_autopilot_links``: a key of
+    its own, derived from the seed like the GCS links'."""
+    if not loaded.run.sign_autopilot_links:
+        return None
+    key = hashlib.sha256(f"ridsafe-lockstep-autopilot-{loaded.scenario.seed}".encode()).digest()
+    return codec.SigningConfig(key, codec.signing_timestamp_from_unix(loaded.scenario.start_unix_s))
+
+
 def build(loaded: ScenarioFile, planner: str, sink: LogSink) -> Lockstep:
     """The scenario's cores, built by the factory (``run.cores``), connected for lockstep."""
     signing = lockstep_signing(loaded)
-    sim = cores.make_sim_backend(loaded, sink, cores.LOCKSTEP_SIM_ENDPOINTS)
-    companions = cores.make_companions(loaded, cores.companion_ids(loaded), planner, sink, signing)
+    autopilot_signing = lockstep_autopilot_signing(loaded)
+    sim = cores.make_sim_backend(loaded, sink, cores.LOCKSTEP_SIM_ENDPOINTS, autopilot_signing)
+    ids = cores.companion_ids(loaded)
+    companions = cores.make_companions(loaded, ids, planner, sink, signing, autopilot_signing)
     gcs = cores.make_gcs(loaded, sink, signing)
     return connect(sim, companions, gcs, loaded.run.lockstep_tick_s)
 

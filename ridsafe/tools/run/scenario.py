@@ -55,6 +55,9 @@ class RunConfig:
     lockstep_tick_s: float = 0.05
     live_tick_s: float = 0.01
     sign_gcs_links: bool = True  # MAVLink 2 signing between companions and the GCS
+    # MAVLink 2 signing between each companion and its autopilot (the sim's companion port),
+    # as ArduPilot offers with a key set; off by default, as on most real aircraft.
+    sign_autopilot_links: bool = False
     gcs_listen: str = "udpin:127.0.0.1:14450"
     # The log's derived Foxglove channels (3D scene of the aircraft and regions, map fixes),
     # next to the records: about half of a log's bytes. A sweep leaves them out by default.
