@@ -11,11 +11,11 @@ file format (scapy reads no btsnoop and writes none).
 from __future__ import annotations
 
 import gzip
-from decimal import Decimal
 import json
 import struct
 from collections.abc import Sequence
 from dataclasses import dataclass
+from decimal import Decimal
 from pathlib import Path
 
 from scapy.layers.bluetooth import (

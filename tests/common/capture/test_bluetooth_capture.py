@@ -1,0 +1,110 @@
+"""Bluetooth LE captures: HCI LE (extended) advertising reports with service data 0xFFFA, in
+btsnoop (H4 and the Linux monitor format btmon writes) and pcap, read back to the very F3411
+bytes with the controller's RSSI and the capture time.
+
+Oracle: reference encodings (tests/data) inside advertisements scapy builds; the extended
+report's event-type bits checked against the Core specification's layout byte by byte.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from scapy.layers.bluetooth import HCI_LE_Meta_Extended_Advertising_Report
+
+from ridsafe.common import f3411
+from ridsafe.common import messages as m
+from ridsafe.common.capture import read_capture, read_capture_file
+from tests.common.capture import builders as b
+
+LOCATIONS = b.reference_messages("OPEN_DRONE_ID_LOCATION", 3)
+SELF_IDS = b.reference_messages("OPEN_DRONE_ID_SELF_ID", 1)
+OPERATOR_IDS = b.reference_messages("OPEN_DRONE_ID_OPERATOR_ID", 1)
+SYSTEMS = b.reference_messages("OPEN_DRONE_ID_SYSTEM", 1)
+LEGACY, LONG_RANGE = m.RidTransport.BLUETOOTH_LEGACY, m.RidTransport.BLUETOOTH_LONG_RANGE
+T0_NS = b.EPOCH_S * 10**9
+
+
+def _items() -> list[b.Timed]:
+    pack = f3411.pack([SELF_IDS[0], LOCATIONS[1]])
+    return [
+        b.Timed(0.0, b.plain_advert_event("c0:ff:ee:00:00:01", -30)),
+        b.Timed(0.5, b.legacy_report_event("c0:00:00:00:00:01", 17, LOCATIONS[0], -80)),
+        b.Timed(0.75, b.extended_report_event("c0:00:00:00:00:02", _data(3, pack), -91)),
+    ]
+
+
+def _data(counter: int, frame: bytes) -> bytes:
+    return bytes(b.odid_service_data(counter, frame))
+
+
+def _expected() -> list[tuple[object, ...]]:
+    pack = f3411.pack([SELF_IDS[0], LOCATIONS[1]])
+    return [
+        (2, T0_NS + 500_000_000, LEGACY, "c0:00:00:00:00:01", -80, 17, LOCATIONS[0]),
+        (3, T0_NS + 750_000_000, LONG_RANGE, "c0:00:00:00:00:02", -91, 3, pack),
+    ]
+
+
+def _got(path: Path) -> list[tuple[object, ...]]:
+    capture = read_capture_file(path)
+    assert not capture.skipped and capture.records == 3
+    return [
+        (f.record, f.t_unix_ns, f.transport, f.sender_mac, f.rssi_dbm, f.counter, f.frame)
+        for f in capture.frames
+    ]
+
+
+def test_btsnoop_h4_gives_legacy_messages_and_extended_packs_with_rssi(tmp_path: Path) -> None:
+    assert _got(b.write_btsnoop(tmp_path / "h4.btsnoop", _items())) == _expected()
+
+
+def test_btsnoop_in_the_monitor_format_btmon_writes_reads_the_same(tmp_path: Path) -> None:
+    path = b.write_btsnoop(tmp_path / "mon.btsnoop", _items(), b.BTSNOOP_MONITOR)
+    assert _got(path) == _expected()
+
+
+def test_pcap_and_pcapng_of_hci_h4_read_the_same(tmp_path: Path) -> None:
+    assert _got(b.write_pcap(tmp_path / "hci.pcap", _items(), b.LINKTYPE_H4)) == _expected()
+    assert _got(b.write_pcapng(tmp_path / "hci.pcapng", _items(), b.LINKTYPE_H4)) == _expected()
+
+
+def test_the_extended_report_event_type_is_little_endian_with_status_in_bits_5_and_6() -> None:
+    report = HCI_LE_Meta_Extended_Advertising_Report(data_status=1, legacy=1)
+    assert bytes(report)[:2] == bytes([0x30, 0x00])  # bit 4 legacy, bits 5-6 = 01
+
+
+def test_an_extended_advertisement_in_parts_is_joined_and_a_truncated_one_dropped(
+    tmp_path: Path,
+) -> None:
+    pack = f3411.pack([SELF_IDS[0], LOCATIONS[2], OPERATOR_IDS[0], SYSTEMS[0]])
+    data = _data(5, pack)
+    cut = len(data) // 2
+    mac = "c0:00:00:00:00:03"
+    items = [
+        b.Timed(0.0, b.extended_report_event(mac, data[:cut], -70, data_status=1)),
+        b.Timed(0.001, b.extended_report_event(mac, data[cut:], -70, data_status=0)),
+        b.Timed(0.002, b.extended_report_event(mac, data[:cut], -70, data_status=2)),
+    ]
+    capture = read_capture_file(b.write_btsnoop(tmp_path / "parts.btsnoop", items))
+    assert [(f.record, f.frame) for f in capture.frames] == [(2, pack)]
+    assert capture.skipped == {"bluetooth_truncated": 1}
+
+
+def test_an_advertisement_without_rssi_is_counted_not_reported(tmp_path: Path) -> None:
+    items = [b.Timed(0.0, b.legacy_report_event("c0:00:00:00:00:01", 1, LOCATIONS[0], 127))]
+    capture = read_capture(b.write_btsnoop(tmp_path / "x", items).read_bytes(), "x.btsnoop")
+    assert capture.frames == [] and capture.skipped == {"no_rssi": 1}
+    assert capture.problems == ["x.btsnoop: record 1 (byte 16): no_rssi: controller gave RSSI 127"]
+
+
+@pytest.mark.parametrize("app_code", [0x0C, 0x0E])
+def test_service_data_0xfffa_with_another_app_code_is_a_named_problem(
+    app_code: int, tmp_path: Path
+) -> None:
+    data = bytes([2 + 1 + 2 + 25, 0x16, 0xFA, 0xFF, app_code, 1]) + LOCATIONS[0]
+    items = [b.Timed(0.0, b.extended_report_event("c0:00:00:00:00:01", data, -60))]
+    capture = read_capture_file(b.write_btsnoop(tmp_path / "app.btsnoop", items))
+    assert capture.frames == [] and capture.skipped == {"bluetooth": 1}
+    assert "no app code 0x0D" in capture.problems[0]
