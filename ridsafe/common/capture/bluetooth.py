@@ -83,11 +83,15 @@ def _h4_with_phdr(data: bytes, flags: int) -> bytes | None:
 
 
 def _monitor(data: bytes, flags: int) -> bytes | None:
-    if flags:  # btsnoop 2001: (adapter << 16) | opcode in the flags, the packet as is
-        return data if flags & 0xFFFF == MONITOR_EVENT else None
+    """pcap 254: adapter u16, opcode u16 (big-endian) in front of the packet."""
     if len(data) >= 4 and struct.unpack_from(">H", data, 2)[0] == MONITOR_EVENT:
-        return data[4:]  # pcap 254: adapter u16, opcode u16 (big-endian) in front
+        return data[4:]
     return None
+
+
+def _btsnoop_monitor(data: bytes, flags: int) -> bytes | None:
+    """btsnoop 2001: (adapter << 16) | opcode in the record's flags, the packet as is."""
+    return data if flags & 0xFFFF == MONITOR_EVENT else None
 
 
 def _unencapsulated(data: bytes, flags: int) -> bytes | None:
@@ -99,6 +103,7 @@ _EVENT_FRAMING: dict[int, Callable[[bytes, int], bytes | None]] = {
     LinkType.BLUETOOTH_HCI_H4_WITH_PHDR: _h4_with_phdr,
     LinkType.BLUETOOTH_LINUX_MONITOR: _monitor,
     LinkType.BTSNOOP_HCI_UNENCAPSULATED: _unencapsulated,
+    LinkType.BTSNOOP_LINUX_MONITOR: _btsnoop_monitor,
 }
 HCI_LINK_TYPES = frozenset(_EVENT_FRAMING)
 

@@ -71,6 +71,8 @@ class LinkType(enum.IntEnum):
     BLUETOOTH_LINUX_MONITOR = 254
     #: btsnoop datalink 1001: an HCI packet without its H4 type byte; the flags say which.
     BTSNOOP_HCI_UNENCAPSULATED = 1001
+    #: btsnoop datalink 2001 (``btmon -w``): the flags hold (adapter << 16) | opcode.
+    BTSNOOP_LINUX_MONITOR = 2001
 
 
 @dataclass(frozen=True, slots=True)
@@ -107,7 +109,7 @@ _BTSNOOP_MAGIC = b"btsnoop\x00"
 _BTSNOOP_LINKS = {
     1001: LinkType.BTSNOOP_HCI_UNENCAPSULATED,
     1002: LinkType.BLUETOOTH_HCI_H4,
-    2001: LinkType.BLUETOOTH_LINUX_MONITOR,
+    2001: LinkType.BTSNOOP_LINUX_MONITOR,
 }
 #: A record longer than this is hostile (no link type here carries more).
 MAX_RECORD_BYTES = 1 << 18

@@ -8,14 +8,19 @@ report's event-type bits checked against the Core specification's layout byte by
 
 from __future__ import annotations
 
+import struct
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scapy.layers.bluetooth import HCI_LE_Meta_Extended_Advertising_Report
 
 from ridsafe.common import f3411
 from ridsafe.common import messages as m
 from ridsafe.common.capture import read_capture, read_capture_file
+from ridsafe.common.capture.containers import BTSNOOP_EPOCH_OFFSET_US
 from tests.common.capture import builders as b
 
 LOCATIONS = b.reference_messages("OPEN_DRONE_ID_LOCATION", 3)
@@ -108,3 +113,58 @@ def test_service_data_0xfffa_with_another_app_code_is_a_named_problem(
     capture = read_capture_file(b.write_btsnoop(tmp_path / "app.btsnoop", items))
     assert capture.frames == [] and capture.skipped == {"bluetooth": 1}
     assert "no app code 0x0D" in capture.problems[0]
+
+
+FRAMINGS: dict[str, tuple[int, Callable[[bytes], bytes]]] = {
+    # pcap 201: direction u32 (1: received) in front of the H4 packet
+    "pcap-201": (201, lambda h4: struct.pack(">I", 1) + h4),
+    # pcap 254: adapter u16, opcode u16 (3: event), big-endian, then the packet without H4 byte
+    "pcap-254": (254, lambda h4: struct.pack(">HH", 0, 3) + h4[1:]),
+}
+
+
+@pytest.mark.parametrize("framing", sorted(FRAMINGS))
+def test_pcap_of_hci_with_a_direction_or_monitor_header_reads_the_same(
+    framing: str, tmp_path: Path
+) -> None:
+    link_type, wrap = FRAMINGS[framing]
+    items = [b.Timed(item.t_s, wrap(bytes(item.packet))) for item in _items()]
+    assert _got(b.write_pcap(tmp_path / "hci.pcap", items, link_type)) == _expected()
+
+
+def test_btsnoop_without_h4_bytes_reads_received_events_by_the_flags(tmp_path: Path) -> None:
+    out = bytearray(b"btsnoop\x00" + struct.pack(">II", 1, 1001))
+    for item in _items():
+        data = bytes(item.packet)[1:]
+        t_us = round((b.EPOCH_S + item.t_s) * 1e6) + BTSNOOP_EPOCH_OFFSET_US
+        out += struct.pack(">IIIIq", len(data), len(data), 0x3, 0, t_us) + data
+    # a command sent (flags 0x2) with the same bytes is not an event: not read
+    out += struct.pack(">IIIIq", len(data), len(data), 0x2, 0, t_us) + data
+    capture = read_capture(bytes(out), "u.btsnoop")
+    assert capture.records == 4 and len(capture.frames) == 2
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    index=st.integers(0, len(LOCATIONS) - 1),
+    dbm=st.integers(-127, 20),
+    counter=st.integers(0, 255),
+    t_us=st.integers(0, 10**9),
+    extended=st.booleans(),
+)
+def test_any_message_rssi_counter_and_time_come_back_exactly(
+    index: int, dbm: int, counter: int, t_us: int, extended: bool
+) -> None:
+    message = LOCATIONS[index]
+    if extended:
+        event = b.extended_report_event("c0:00:00:00:00:05", _data(counter, message), dbm)
+    else:
+        event = b.legacy_report_event("c0:00:00:00:00:05", counter, message, dbm)
+    data = bytes(event)
+    stamp = t_us + BTSNOOP_EPOCH_OFFSET_US + b.EPOCH_S * 10**6
+    raw = b"btsnoop\x00" + struct.pack(">II", 1, 1002)
+    raw += struct.pack(">IIIIq", len(data), len(data), 0x3, 0, stamp) + data
+    (frame,) = read_capture(raw, "p.btsnoop").frames
+    assert (frame.frame, frame.rssi_dbm, frame.counter) == (message, dbm, counter)
+    assert frame.t_unix_ns == (b.EPOCH_S * 10**6 + t_us) * 1000
+    assert frame.transport is (LONG_RANGE if extended else LEGACY)
