@@ -23,6 +23,7 @@ from ridsafe.common import messages as m
 from ridsafe.common.capture import read_capture_file
 from ridsafe.common.heard import HeardRidFrame
 from ridsafe.common.scenario import RadioConfig, Scenario
+from ridsafe.companion.mission import Phase
 from ridsafe.companion.receivers import CaptureReceiver, TransponderReceiver
 from tests.common.capture import builders as b
 from tests.companion.test_companion_core import AIRCRAFT, ORIGIN, Flight
@@ -120,3 +121,25 @@ def test_a_capture_of_the_same_frames_gives_the_same_observations(
 
     assert _observations(flight) == expected
     assert receiver.counters()["released"] == len(heard)
+
+
+def test_a_damaged_capture_is_counted_and_the_companion_flies_on(tmp_path: Path) -> None:
+    garbage = bytes([0x1F]) + bytes(range(24))  # type 1, version 15: not a readable LOCATION
+    location = b.reference_messages("OPEN_DRONE_ID_LOCATION", 1)[0]
+    items = [
+        b.Timed(0.5, b.legacy_report_event("c0:00:00:00:00:07", 2, garbage, -70)),
+        b.Timed(1.0, b.legacy_report_event("c0:00:00:00:00:07", 3, location, -71)),
+    ]
+    path = b.write_btsnoop(tmp_path / "bad.btsnoop", items)
+    path.write_bytes(path.read_bytes()[:-7])  # the last record cut short
+    capture = read_capture_file(path)
+    assert len(capture.frames) == 1 and capture.skipped == {"truncated": 1}
+
+    flight = Flight(_scenario())
+    receiver = CaptureReceiver(capture, start_s=2.0)
+    flight.companions[1].receiver = receiver
+    flight.run(4.0)
+    counters = flight.companions[1].counters_snapshot()
+    assert counters["receiver.released"] == 1 and counters["receiver.skipped_truncated"] == 1
+    assert counters["observations.frame_errors"] == 1
+    assert flight.companions[1].phase is not Phase.FAILED

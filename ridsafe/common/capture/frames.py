@@ -116,15 +116,19 @@ def read_capture(data: bytes, source: str) -> Capture:
             capture.first_t_unix_ns = item.t_unix_ns
         try:
             capture.frames.extend(_record_frames(item, joiner, capture))
-        except (RadiotapError, WifiFrameError, BluetoothError, RidsafeError) as exc:
-            reason = type(exc).__name__.removesuffix("Error").lower()
-            capture.skip(item.number, item.offset, reason, str(exc))
+        except (RadiotapError, WifiFrameError, BluetoothError) as exc:
+            capture.skip(item.number, item.offset, _REASONS[type(exc)], str(exc))
     if joiner.truncated:
         capture.skipped["bluetooth_truncated"] += joiner.truncated
     return capture
 
 
 _WIFI = frozenset({LinkType.IEEE802_11_RADIOTAP})
+_REASONS: dict[type[ValueError], str] = {
+    RadiotapError: "radiotap",
+    WifiFrameError: "wifi_frame",
+    BluetoothError: "hci_event",
+}
 
 
 def _record_frames(

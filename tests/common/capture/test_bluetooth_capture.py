@@ -111,7 +111,7 @@ def test_service_data_0xfffa_with_another_app_code_is_a_named_problem(
     data = bytes([2 + 1 + 2 + 25, 0x16, 0xFA, 0xFF, app_code, 1]) + LOCATIONS[0]
     items = [b.Timed(0.0, b.extended_report_event("c0:00:00:00:00:01", data, -60))]
     capture = read_capture_file(b.write_btsnoop(tmp_path / "app.btsnoop", items))
-    assert capture.frames == [] and capture.skipped == {"bluetooth": 1}
+    assert capture.frames == [] and capture.skipped == {"hci_event": 1}
     assert "no app code 0x0D" in capture.problems[0]
 
 

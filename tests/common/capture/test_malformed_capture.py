@@ -83,7 +83,7 @@ def test_a_broken_radiotap_or_802_11_frame_is_skipped_and_reading_goes_on(tmp_pa
     data[oui_at - 1] = 0xFF  # the vendor element's length: runs past the frame's end
     capture = read_capture(bytes(data), "b.pcap")
     assert len(capture.frames) == 1 and capture.frames[0].record == 3
-    assert capture.skipped == {"radiotap": 1, "wififrame": 1}
+    assert capture.skipped == {"radiotap": 1, "wifi_frame": 1}
 
 
 def test_a_pcapng_block_of_impossible_length_is_named(tmp_path: Path) -> None:

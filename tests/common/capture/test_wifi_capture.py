@@ -14,7 +14,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from scapy.layers.dot11 import RadioTap
+from scapy.layers.dot11 import Dot11, Dot11EltVendorSpecific, RadioTap
+from scapy.packet import Raw
 
 from ridsafe.common import codec, f3411
 from ridsafe.common import messages as m
@@ -173,3 +174,31 @@ def test_broken_radiotap_headers_are_refused_with_the_reason(header: bytes, comp
 )
 def test_channel_numbers(mhz: int, channel: int) -> None:
     assert channel_number(mhz) == channel
+
+
+def test_a_frame_with_ht_control_has_its_body_four_bytes_later(tmp_path: Path) -> None:
+    pack = b.location_pack(LOCATIONS[0])
+    packet = bytes(b.beacon(DRONE, 4, pack, -66))
+    header_at = parse_radiotap(packet).header_len
+    frame = bytearray(packet[header_at:])
+    frame[1] |= 0x80  # +HTC / order: HT control follows the 24-byte header
+    with_htc = packet[:header_at] + bytes(frame[:24]) + bytes(4) + bytes(frame[24:])
+    items = [b.Timed(0.0, with_htc)]
+    capture = read_capture_file(b.write_pcap(tmp_path / "htc.pcap", items, b.LINKTYPE_RADIOTAP))
+    assert [(f.frame, f.rssi_dbm) for f in capture.frames] == [(pack, -66)]
+
+
+def test_data_frames_and_other_vendors_elements_are_ignored_an_empty_rid_element_named(
+    tmp_path: Path,
+) -> None:
+    data_frame = b.radiotap(-50) / Dot11(type=2, subtype=0, addr2=DRONE) / Raw(bytes(40))
+    wpa = Dot11EltVendorSpecific(oui=0x0050F2, info=bytes([0x01, 0x01, 0x00]))
+    other_vendor = b.plain_beacon(DRONE, -50) / wpa
+    empty_rid = b.beacon(DRONE, 1, b"", -50)  # counter, no message pack
+    items = [b.Timed(0.0, data_frame), b.Timed(0.1, other_vendor), b.Timed(0.2, empty_rid)]
+    capture = read_capture_file(b.write_pcap(tmp_path / "o.pcap", items, b.LINKTYPE_RADIOTAP))
+    assert capture.records == 3 and capture.frames == []
+    assert capture.skipped == {"wifi_frame": 1}
+    assert (
+        "record 3" in capture.problems[0] and "no message counter and pack" in capture.problems[0]
+    )
