@@ -93,8 +93,8 @@ def _bitmasks(data: bytes, header_len: int) -> tuple[list[int], int]:
 class _Walk:
     """Field offsets in header order (alignment from the header's start)."""
 
-    def __init__(self, data: bytes, header_len: int, position: int) -> None:
-        self.data, self.end, self.position = data, header_len, position
+    def __init__(self, header_len: int, position: int) -> None:
+        self.end, self.position = header_len, position
 
     def take(self, align: int, size: int, what: str) -> int:
         start = self.position + (-self.position % align)
@@ -113,7 +113,7 @@ def parse_radiotap(data: bytes) -> RadiotapInfo:
     if not 8 <= header_len <= len(data):
         raise RadiotapError(f"radiotap length {header_len} in a {len(data)}-byte packet")
     masks, first_field = _bitmasks(data, header_len)
-    walk = _Walk(data, header_len, first_field)
+    walk = _Walk(header_len, first_field)
     found: dict[int, int] = {}  # bit -> offset, radiotap namespace, first occurrence
     in_radiotap, tlvs, vendor_skip = True, False, 0
     for mask in masks:

@@ -15,7 +15,14 @@ from pathlib import Path
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scapy.layers.bluetooth import HCI_LE_Meta_Extended_Advertising_Report
+from scapy.layers.bluetooth import (
+    HCI_Event_Hdr,
+    HCI_Event_LE_Meta,
+    HCI_Hdr,
+    HCI_LE_Meta_Advertising_Report,
+    HCI_LE_Meta_Advertising_Reports,
+    HCI_LE_Meta_Extended_Advertising_Report,
+)
 
 from ridsafe.common import f3411
 from ridsafe.common import messages as m
@@ -168,3 +175,24 @@ def test_any_message_rssi_counter_and_time_come_back_exactly(
     assert (frame.frame, frame.rssi_dbm, frame.counter) == (message, dbm, counter)
     assert frame.t_unix_ns == (b.EPOCH_S * 10**6 + t_us) * 1000
     assert frame.transport is (LONG_RANGE if extended else LEGACY)
+
+
+def test_two_reports_in_one_event_are_read_one_after_the_other(tmp_path: Path) -> None:
+    reports = [
+        HCI_LE_Meta_Advertising_Report(
+            type=3,
+            addr_type=1,
+            addr=f"c0:00:00:00:00:0{i}",
+            rssi=-60 - i,
+            data=[b.odid_service_data(i, LOCATIONS[i])],
+        )
+        for i in (1, 2)
+    ]
+    event = HCI_Hdr() / HCI_Event_Hdr() / HCI_Event_LE_Meta()
+    event /= HCI_LE_Meta_Advertising_Reports(reports=reports)
+    capture = read_capture_file(b.write_btsnoop(tmp_path / "two.btsnoop", [b.Timed(0.0, event)]))
+    got = [(f.sender_mac, f.rssi_dbm, f.counter, f.frame) for f in capture.frames]
+    assert got == [
+        ("c0:00:00:00:00:01", -61, 1, LOCATIONS[1]),
+        ("c0:00:00:00:00:02", -62, 2, LOCATIONS[2]),
+    ]
