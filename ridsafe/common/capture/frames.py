@@ -114,8 +114,8 @@ def read_capture(data: bytes, source: str) -> Capture:
         capture.records += 1
         if capture.first_t_unix_ns is None:
             capture.first_t_unix_ns = item.t_unix_ns
-        try:
-            capture.frames.extend(_record_frames(item, joiner, capture))
+        try:  # a record that fails part way gives no frame at all
+            capture.frames.extend(list(_record_frames(item, joiner, capture)))
         except (RadiotapError, WifiFrameError, BluetoothError) as exc:
             capture.skip(item.number, item.offset, _REASONS[type(exc)], str(exc))
     if joiner.truncated:
