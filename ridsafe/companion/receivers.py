@@ -106,14 +106,20 @@ class RecordedFrames:
 
 class CaptureReceiver(RecordedFrames):
     """The frames of a capture file (``common.capture.read_capture``), heard at ``start_s``
-    plus their time after the capture's first record."""
+    plus their time after the capture's first record. Frames whose sender is ``own_sender_id``
+    (the aircraft's own broadcasts, which a real receiver beside its transponder captures
+    too; the sim's radio never delivers them) are left out and counted."""
 
     name = "capture"
 
-    def __init__(self, capture: Capture, start_s: float = 0.0) -> None:
-        super().__init__(heard_frames(capture, start_s))
+    def __init__(self, capture: Capture, start_s: float = 0.0, own_sender_id: bytes = b"") -> None:
+        heard = heard_frames(capture, start_s)
+        others = [frame for frame in heard if not own_sender_id or frame.sender_id != own_sender_id]
+        super().__init__(others)
         self.source = capture.source
         self._skipped = {f"skipped_{reason}": count for reason, count in capture.skipped.items()}
+        if len(others) < len(heard):
+            self._skipped["own_frames"] = len(heard) - len(others)
 
     def counters(self) -> dict[str, int]:
         return {**super().counters(), **self._skipped}

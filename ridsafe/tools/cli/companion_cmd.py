@@ -178,7 +178,9 @@ def run(args: argparse.Namespace) -> int:
     try:
         companions = build_companions(args, loaded, vehicles, sink, signing)
         for companion in companions:
-            companion.receiver = rid_source.make_receiver(source, args.rid_start_s)
+            companion.receiver = rid_source.make_receiver(
+                source, args.rid_start_s, companion.spec.serial
+            )
         app = CompanionApp(
             companions,
             connections,

@@ -52,9 +52,9 @@ def parse_rid_source(text: str) -> RidSource:
     return RidSource(Path(path), _CAPTURE_KINDS[kind])
 
 
-def make_receiver(source: RidSource, start_s: float) -> RidReceiver:
+def make_receiver(source: RidSource, start_s: float, own_serial: str = "") -> RidReceiver:
     """The receiver of ``source`` (a capture is read whole now; ``CaptureError`` / OSError
-    if it cannot be)."""
+    if it cannot be); frames from ``own_serial`` in a capture are the aircraft's own."""
     if source.path is None:
         return TransponderReceiver()
     capture = read_capture_file(source.path)
@@ -64,7 +64,7 @@ def make_receiver(source: RidSource, start_s: float) -> RidReceiver:
             0,
             f"a {source.expected_format.value} file was named, this is {capture.format.value}",
         )
-    receiver = CaptureReceiver(capture, start_s)
+    receiver = CaptureReceiver(capture, start_s, own_serial.encode("ascii"))
     skipped = sum(capture.skipped.values())
     logger.info(
         "%s: %d records, %d Remote ID frames, %d skipped",

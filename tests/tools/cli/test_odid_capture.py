@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from ridsafe.common import f3411
+from ridsafe.common import codec, f3411, rid
 from ridsafe.common.capture import CaptureError, CaptureFormat
 from ridsafe.companion.receivers import CaptureReceiver, TransponderReceiver
 from ridsafe.tools.cli import build_parser
@@ -134,3 +134,21 @@ def test_a_companion_fed_by_a_capture_hears_its_frames_through_the_real_command(
     counters = [line for line in lines if "counters" in line][-1]
     assert code == 0
     assert "'receiver.released': 1" in counters and "'observations.heard': 1" in counters
+
+
+def test_the_aircrafts_own_broadcasts_in_a_capture_are_left_out_and_counted(
+    tmp_path: Path,
+) -> None:
+    serial = "RSAF800000001"
+    own_basic = f3411.encode(*codec.odid_fields(rid.basic_id(serial)))
+    items = [
+        b.Timed(
+            0.0, b.beacon("02:00:00:00:00:01", 1, b.location_pack(LOCATIONS[0], own_basic), -20)
+        ),
+        b.Timed(0.1, b.beacon("02:00:00:00:00:02", 2, b.location_pack(LOCATIONS[1]), -70)),
+    ]
+    path = b.write_pcap(tmp_path / "own.pcap", items, b.LINKTYPE_RADIOTAP)
+    receiver = make_receiver(parse_rid_source(f"pcap:{path}"), 0.0, serial)
+    heard = receiver.poll(1.0)
+    assert [(h.sender_id, h.rssi_dbm) for h in heard] == [(b"02:00:00:00:00:02", -70.0)]
+    assert receiver.counters() == {"released": 1, "waiting": 0, "own_frames": 1}
