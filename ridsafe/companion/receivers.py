@@ -7,8 +7,12 @@ interface knows which radio it is. Two receivers:
 - ``TransponderReceiver``: the RID transponder on the autopilot link (the sim's, or a real
   one that speaks the ridsafe dialect) sends one RIDSAFE_RID_FRAME per frame it hears; the
   companion stamps it with its arrival time.
-- ``RecordedFrames``: frames captured earlier (a pcap of Wi-Fi beacons, a Bluetooth log,
-  a test), released when the companion's clock reaches their receive time.
+- ``RecordedFrames``: frames recorded earlier (a test, a log), released when the
+  companion's clock reaches their receive time.
+- ``CaptureReceiver``: a capture of real receivers (monitor-mode Wi-Fi pcap/pcapng with
+  radiotap RSSI, Bluetooth LE HCI btsnoop; read by ``common.capture``), replayed relative
+  to the capture's first record: a frame captured ``d`` s after it is heard at
+  ``start_s + d`` on the companion's clock. Its counters include what the capture skipped.
 
 A new source (a live Wi-Fi / Bluetooth capture) is one more class with these three methods,
 passed to ``Companion(receiver=...)``.
@@ -22,9 +26,10 @@ from dataclasses import asdict, dataclass
 from typing import Protocol
 
 from ridsafe.common import messages as m
+from ridsafe.common.capture import Capture, heard_frames
 from ridsafe.common.heard import HeardRidFrame
 
-__all__ = ["RecordedFrames", "RidReceiver", "TransponderReceiver"]
+__all__ = ["CaptureReceiver", "RecordedFrames", "RidReceiver", "TransponderReceiver"]
 
 
 class RidReceiver(Protocol):
@@ -97,3 +102,24 @@ class RecordedFrames:
 
     def counters(self) -> dict[str, int]:
         return {"released": self.released, "waiting": len(self._waiting)}
+
+
+class CaptureReceiver(RecordedFrames):
+    """The frames of a capture file (``common.capture.read_capture``), heard at ``start_s``
+    plus their time after the capture's first record. Frames whose sender is ``own_sender_id``
+    (the aircraft's own broadcasts, which a real receiver beside its transponder captures
+    too; the sim's radio never delivers them) are left out and counted."""
+
+    name = "capture"
+
+    def __init__(self, capture: Capture, start_s: float = 0.0, own_sender_id: bytes = b"") -> None:
+        heard = heard_frames(capture, start_s)
+        others = [frame for frame in heard if not own_sender_id or frame.sender_id != own_sender_id]
+        super().__init__(others)
+        self.source = capture.source
+        self._skipped = {f"skipped_{reason}": count for reason, count in capture.skipped.items()}
+        if len(others) < len(heard):
+            self._skipped["own_frames"] = len(heard) - len(others)
+
+    def counters(self) -> dict[str, int]:
+        return {**super().counters(), **self._skipped}

@@ -9,6 +9,10 @@ several in one process. Events and counters are printed; Ctrl-C stops.
 The scenario file's ``companion:`` (``CompanionConfig``) and ``planner:`` (``PlannerConfig``)
 sections are optional; ``--set companion.on_arrival=land`` and
 ``--set companion.cruise_speed_m_s=6`` override single values.
+
+``--rid-source capture:FILE`` feeds the companion the Remote ID of a capture of real
+receivers (Wi-Fi pcap/pcapng with radiotap, Bluetooth btsnoop) instead of the transponder's,
+replayed relative to the capture's first record (docs/receivers.md).
 """
 
 from __future__ import annotations
@@ -31,7 +35,7 @@ from ridsafe.companion.app import (
 from ridsafe.companion.companion import Companion
 from ridsafe.companion.mission import Phase
 from ridsafe.companion.planners import PLANNERS
-from ridsafe.tools.cli import app_args
+from ridsafe.tools.cli import app_args, rid_source
 from ridsafe.tools.run import cores, process
 from ridsafe.tools.run.scenario import ScenarioFile
 
@@ -60,6 +64,18 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     parser.add_argument(
         "--planner", choices=sorted(PLANNERS), help="planner name (default: run.planner)"
+    )
+    parser.add_argument(
+        "--rid-source",
+        default=rid_source.TRANSPONDER,
+        help="heard RID frames: 'transponder' (default) or capture:FILE "
+        "(also pcap:/pcapng:/btsnoop:FILE); one --vehicle only for a capture",
+    )
+    parser.add_argument(
+        "--rid-start-s",
+        type=float,
+        default=0.0,
+        help="companion time (s) at which the capture's first record is heard (default 0)",
     )
     parser.add_argument(
         "--keep-running",
@@ -156,6 +172,9 @@ def run(args: argparse.Namespace) -> int:
         connections = _connections(args, loaded, vehicles)
         signing = process.signing_from_file(args.signing_key)
         autopilot_signing = process.signing_from_file(args.autopilot_signing_key)
+        source = rid_source.parse_rid_source(args.rid_source)
+        if source.path is not None and len(vehicles) != 1:
+            raise ValueError("--rid-source with a capture is one receiver: use a single --vehicle")
     except (RidsafeError, ValueError, KeyError, OSError) as exc:
         print(f"ridsafe companion: {exc}", file=sys.stderr)
         return 2
@@ -164,6 +183,10 @@ def run(args: argparse.Namespace) -> int:
     )
     try:
         companions = build_companions(args, loaded, vehicles, sink, signing, autopilot_signing)
+        for companion in companions:
+            companion.receiver = rid_source.make_receiver(
+                source, args.rid_start_s, companion.spec.serial
+            )
         app = CompanionApp(
             companions,
             connections,

@@ -10,6 +10,9 @@ the fields (the reason goes to stderr). A line that is no JSON object with those
 
 ``ridsafe odid decode HEX`` prints one JSON object with the message name and its fields; for a
 message pack also ``"contents"``, each contained message decoded. Exit code 1 on bad input.
+
+``ridsafe odid capture FILE`` prints the Remote ID of a Wi-Fi or Bluetooth capture with RSSI
+as JSON lines (``odid_capture``).
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from collections.abc import Iterable, Iterator
 from typing import Any, TextIO
 
 from ridsafe.common import f3411
+from ridsafe.tools.cli.odid_capture import register_capture
 
 _ENCODE_DESCRIPTION = (
     'Reads JSON lines {"message": "OPEN_DRONE_ID_...", "fields": {...}} on stdin and writes '
@@ -48,6 +52,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     decode.add_argument("hex", metavar="HEX", help="the message bytes in hex, e.g. 12317cfe...")
     decode.set_defaults(func=run_decode)
+    register_capture(actions)
 
 
 def _dumps(document: object) -> str:
