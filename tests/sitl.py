@@ -85,7 +85,9 @@ def arducopter(
             proc.wait()
 
 
-READY_TEXT = "ArduPilot Ready"  # init done: from here on the mode a client sets stays set
+# Texts ArduCopter sends once initialised (from here on a mode a client sets stays set); the
+# first, "ArduPilot Ready", often goes out before a link has been heard from, and is lost.
+READY_TEXTS = ("ArduPilot Ready", "EKF3 IMU0 initialised", "AHRS: EKF3 active")
 
 
 def wait_until_initialised(gcs_port: int, timeout_s: float = 120.0) -> None:
@@ -98,12 +100,12 @@ def wait_until_initialised(gcs_port: int, timeout_s: float = 120.0) -> None:
     try:
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
-            # ArduPilot sends STATUSTEXT only on links it has heard from (queued till then);
-            # a udpin link sends nothing before the SITL's first datagram
+            # ArduPilot sends STATUSTEXT only on links it has heard from; a udpin link
+            # sends nothing before the SITL's first datagram
             conn.mav.heartbeat_send(gcs.MAV_TYPE_GCS, gcs.MAV_AUTOPILOT_INVALID, 0, 0, 0)
-            msg = conn.recv_match(type="STATUSTEXT", blocking=True, timeout=1.0)
-            if msg is not None and READY_TEXT in msg.text:
+            msg = conn.recv_match(type="STATUSTEXT", blocking=True, timeout=0.5)
+            if msg is not None and msg.text.startswith(READY_TEXTS):
                 return
     finally:
         conn.close()
-    raise TimeoutError(f"no {READY_TEXT!r} from the SITL within {timeout_s:g} s")
+    raise TimeoutError(f"none of {READY_TEXTS} from the SITL within {timeout_s:g} s")
