@@ -33,6 +33,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--vehicles", type=positive_int, help="number of benign vehicles (rescales the scenario)"
     )
     parser.add_argument("--no-spoofer", action="store_true", help="leave the spoofer out")
+    parser.add_argument(
+        "--foxglove", metavar="[HOST:]PORT", help="serve the channels live to the Foxglove app"
+    )
     parser.set_defaults(func=run)
 
 
@@ -61,6 +64,13 @@ def run(args: argparse.Namespace) -> int:
         print(f"ridsafe sim: {exc}", file=sys.stderr)
         return 2
     sink = process.open_sink(args.log, loaded.scenario.origin, loaded.run.foxglove_channels)
+    if args.foxglove:
+        try:
+            sink = process.with_live_view(sink, args.foxglove, loaded.scenario.origin)
+        except RidsafeError as exc:
+            process.close_sink(sink)
+            print(f"ridsafe sim: {exc}", file=sys.stderr)
+            return 2
     backend = build_backend(loaded, sink)
     try:
         endpoints = open_endpoints(backend, loaded.sim.ports)
