@@ -103,6 +103,7 @@ class ParamStore:
     def __init__(self, config: AutopilotConfig, sysid: int) -> None:
         self.values = [float(spec.default(config)) for spec in PARAMS]
         self.values[_BY_NAME["SYSID_THISMAV"]] = float(sysid)
+        self.defaults = list(self.values)  # what the parameter file's defaults say
 
     def __len__(self) -> int:
         return len(PARAMS)
