@@ -51,6 +51,7 @@ from ridsafe.sim_backend.commands import (
     TelemetryControl,
     VehicleSample,
 )
+from ridsafe.sim_backend.fence import Fence
 from ridsafe.sim_backend.home_frame import HomeFrame
 from ridsafe.sim_backend.mission_protocol import MissionStore
 from ridsafe.sim_backend.mode_rules import (
@@ -161,6 +162,7 @@ class Autopilot:
         self._events: list[dict[str, object]] = []
         self._hold_enu_m: FloatArray | None = None
         self._status: list[m.StatusText] = []
+        self.fence = Fence()
 
     # -- what the vehicle says ------------------------------------------------------------
 
@@ -388,6 +390,7 @@ class Autopilot:
             self._on_ground(now_s)
         else:
             self.landed_since_s = None
+        self.fence.update(now_s, sample, self)
         behaviour = MODE_RULES[self.mode].behaviour
         if behaviour is Behaviour.GUIDED:
             self._guided_failsafe(now_s, sample)
@@ -465,6 +468,24 @@ class Autopilot:
         mode = CopterMode.LAND if action is FailsafeAction.LAND else CopterMode.RTL
         self.mode = mode
         self._hold_enu_m = sample.p_enu_m.copy()
+
+    def say(self, severity: m.MavSeverity, text: str) -> None:
+        """A STATUSTEXT from this autopilot (for its parts: fence, missions)."""
+        self._say(severity, text)
+
+    def record_event(self, event: dict[str, object]) -> None:
+        self._events.append({"sysid": self.sysid, **event})
+
+    def enter_failsafe_mode(self, mode: CopterMode, sample: VehicleSample) -> None:
+        """Switch to ``mode`` (RTL, LAND or BRAKE) from where the vehicle is now."""
+        self.mode = mode
+        self._hold_enu_m = sample.p_enu_m.copy()
+        if MODE_RULES[mode].behaviour is Behaviour.HOLD:
+            self.actuators.set_target(
+                self.vehicle, position_enu_m=sample.p_enu_m, yaw_rad=sample.psi_rad
+            )
+            self.target_has_velocity = False
+        self._say(m.MavSeverity.INFO, f"Mode {mode.name}")
 
     def land_here(self, sample: VehicleSample, hold_enu_m: FloatArray | None = None) -> None:
         """One tick of LAND's descent (also AUTO's NAV_LAND), over ``hold_enu_m`` if given."""

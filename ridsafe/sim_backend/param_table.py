@@ -4,8 +4,8 @@
 (PARAM_REQUEST_LIST / PARAM_REQUEST_READ / PARAM_SET -> PARAM_VALUE). A row either drives
 behaviour (the autopilot reads it through ``ParamStore`` every time it needs it, so a
 PARAM_SET takes effect at once) or is carried for ground stations that expect it (the
-``FENCE_*`` rows: the sim has no geofence; the ``WPNAV_*`` speeds: the sim's controller
-limits apply; ``used`` False says so).
+``WPNAV_*`` climb/descent speeds and ``FENCE_MARGIN``: the sim's controller limits apply;
+``used`` False says so). The geofence (``FENCE_*``) is :mod:`ridsafe.sim_backend.fence`.
 
 Units are ArduCopter's (RTL_ALT in cm, RTL_SPEED in cm/s, ...); defaults that the sim's
 ``AutopilotConfig`` sets come from it, so a default run behaves as before the table existed.
@@ -78,11 +78,11 @@ PARAMS: tuple[ParamSpec, ...] = (
     ParamSpec("SIM_OFB_LOSS_T", lambda c: c.companion_loss_timeout_s, low=0.0, high=3600.0),
     ParamSpec("SIM_OFB_LOSS_ACT", lambda c: float(c.companion_loss_action), ParamType.INT8, 0, 2),
     ParamSpec("SIM_PREARM_T", lambda c: c.prearm_delay_s, low=0.0, high=3600.0),
-    _int("FENCE_ENABLE", 0, 0, 1, used=False),
-    _int("FENCE_TYPE", 7, 0, 15, used=False),
-    _int("FENCE_ACTION", 1, 0, 7, used=False),
-    ParamSpec("FENCE_ALT_MAX", _fixed(100.0), low=10, high=1000, used=False),
-    ParamSpec("FENCE_RADIUS", _fixed(300.0), low=30, high=10000, used=False),
+    _int("FENCE_ENABLE", 0, 0, 1),
+    _int("FENCE_TYPE", 7, 0, 15),
+    _int("FENCE_ACTION", 1, 0, 5),
+    ParamSpec("FENCE_ALT_MAX", _fixed(100.0), low=10, high=1000),
+    ParamSpec("FENCE_RADIUS", _fixed(300.0), low=30, high=10000),
     ParamSpec("FENCE_MARGIN", _fixed(2.0), low=1, high=10, used=False),
     _int("FS_GCS_ENABLE", 0, 0, 7, used=False),
     _int("SYSID_THISMAV", 1, 1, 255, used=False),
