@@ -62,6 +62,7 @@ from ridsafe.sim_backend.mode_rules import (
     ModeRule,
 )
 from ridsafe.sim_backend.param_table import FailsafeAction, ParamStore
+from ridsafe.sim_backend.params import ControllerParams
 from ridsafe.sim_backend.targets import (
     BODY_FRAMES,
     POSITION_BITS,
@@ -70,6 +71,7 @@ from ridsafe.sim_backend.targets import (
     mask_rejection,
     yaw_rotate,
 )
+from ridsafe.sim_backend.wpnav import WaypointNav
 
 logger = logging.getLogger(__name__)
 PREARM_REPORT_PERIOD_S = 30.0
@@ -136,7 +138,10 @@ class Autopilot:
         config: AutopilotConfig | None = None,
         mission: Mission | None = None,
         remote_id_error: Callable[[float], str | None] | None = None,
+        controller: ControllerParams | None = None,
     ) -> None:
+        """``controller``: the vehicle controller's parameters; given, a WPNAV_SPEED below its
+        speed cap limits position-only targets (:mod:`.wpnav`)."""
         self.sysid = sysid
         self.vehicle = vehicle
         self.home = home
@@ -154,6 +159,10 @@ class Autopilot:
         self.failsafe_active = False
         self.rejected_targets = 0
         self.params: ParamStore = ParamStore(self.config, sysid)
+        self.wpnav: WaypointNav | None = None
+        if controller is not None:
+            self.wpnav = WaypointNav(actuators, self.params, controller)
+            self.actuators = self.wpnav
         self.missions = MissionStore()
         self.auto: AutoMission | None = None
         self.setpoints_in_stream = 0
@@ -391,6 +400,8 @@ class Autopilot:
         else:
             self.landed_since_s = None
         self.fence.update(now_s, sample, self)
+        if self.wpnav is not None:
+            self.wpnav.update(sample)
         behaviour = MODE_RULES[self.mode].behaviour
         if behaviour is Behaviour.GUIDED:
             self._guided_failsafe(now_s, sample)

@@ -5,7 +5,8 @@
 behaviour (the autopilot reads it through ``ParamStore`` every time it needs it, so a
 PARAM_SET takes effect at once) or is carried for ground stations that expect it (the
 ``WPNAV_*`` climb/descent speeds and ``FENCE_MARGIN``: the sim's controller limits apply;
-``used`` False says so). The geofence (``FENCE_*``) is :mod:`ridsafe.sim_backend.fence`.
+``used`` False says so). The geofence (``FENCE_*``) is :mod:`ridsafe.sim_backend.fence`,
+``WPNAV_SPEED`` :mod:`ridsafe.sim_backend.wpnav`.
 
 Units are ArduCopter's (RTL_ALT in cm, RTL_SPEED in cm/s, ...); defaults that the sim's
 ``AutopilotConfig`` sets come from it, so a default run behaves as before the table existed.
@@ -71,7 +72,7 @@ PARAMS: tuple[ParamSpec, ...] = (
     ParamSpec("LAND_ALT_LOW", lambda c: c.land_final_alt_m * 100.0, low=100, high=10000),
     ParamSpec("RTL_ALT", lambda c: c.rtl_alt_m * 100.0, low=30, high=300000),
     ParamSpec("RTL_SPEED", lambda c: c.rtl_speed_m_s * 100.0, low=0, high=2000),
-    ParamSpec("WPNAV_SPEED", _fixed(1000.0), low=20, high=2000, used=False),
+    ParamSpec("WPNAV_SPEED", _fixed(1000.0), low=20, high=2000),
     ParamSpec("WPNAV_SPEED_UP", _fixed(250.0), low=10, high=1000, used=False),
     ParamSpec("WPNAV_SPEED_DN", _fixed(150.0), low=10, high=500, used=False),
     ParamSpec("WPNAV_RADIUS", _fixed(200.0), low=5, high=1000),
