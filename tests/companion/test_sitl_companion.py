@@ -43,7 +43,9 @@ def test_companion_flies_the_real_arducopter_from_cold_start_and_exits(tmp_path:
     out = done.stdout + done.stderr
     assert done.returncode == 0, out
     assert "Need Position Estimate" in out  # it really started cold and waited
-    assert "waiting_prearm" in out
+    assert "command_rejected: arm" in out  # refused at least once and retried (how many
+    # times depends on the machine's load; the "waiting_prearm" note after several refusals is
+    # tested in tests/companion/test_cold_start.py)
     assert "arrived: within 10 m of the goal" in out
     assert "LAND -> DONE" in out
     assert "companion 1: ended in DONE" in out
