@@ -6,7 +6,7 @@ the record is about, and a JSON-serialisable mapping (numbers, strings, bools, N
 dicts; no numpy scalars or arrays: convert with ``.tolist()`` / ``float()``).
 
 The MCAP recorder (``ridsafe.tools.runlog.writer``) is the sink of a real run; tests use
-``MemorySink``; ``NullSink`` drops everything.
+``MemorySink``; ``NullSink`` drops everything; ``TeeSink`` hands each record to several.
 """
 
 from __future__ import annotations
@@ -25,6 +25,17 @@ class LogSink(Protocol):
 class NullSink:
     def log(self, topic: str, t_s: float, record: Record) -> None:
         return None
+
+
+@dataclass(frozen=True)
+class TeeSink:
+    """Every record to each of ``sinks`` in turn (a run's log and its live view)."""
+
+    sinks: tuple[LogSink, ...]
+
+    def log(self, topic: str, t_s: float, record: Record) -> None:
+        for sink in self.sinks:
+            sink.log(topic, t_s, record)
 
 
 @dataclass

@@ -293,6 +293,17 @@ class MissionItemReached:
     seq: int
 
 
+@quick_init
+@dataclass(frozen=True, slots=True)
+class FileTransferProtocol:
+    """MAVLink FTP: ``payload`` (<= 251 bytes) is the FTP packet (header + data)."""
+
+    target_network: int
+    target_system: int
+    target_component: int
+    payload: bytes
+
+
 ProtocolMessage: TypeAlias = (
     CommandInt
     | ParamRequestList
@@ -318,4 +329,5 @@ ProtocolMessage: TypeAlias = (
     | MissionSetCurrent
     | MissionCurrent
     | MissionItemReached
+    | FileTransferProtocol
 )

@@ -51,6 +51,7 @@ from ridsafe.sim_backend.commands import (
     TelemetryControl,
     VehicleSample,
 )
+from ridsafe.sim_backend.fence import Fence
 from ridsafe.sim_backend.home_frame import HomeFrame
 from ridsafe.sim_backend.mission_protocol import MissionStore
 from ridsafe.sim_backend.mode_rules import (
@@ -61,6 +62,7 @@ from ridsafe.sim_backend.mode_rules import (
     ModeRule,
 )
 from ridsafe.sim_backend.param_table import FailsafeAction, ParamStore
+from ridsafe.sim_backend.params import ControllerParams
 from ridsafe.sim_backend.targets import (
     BODY_FRAMES,
     POSITION_BITS,
@@ -69,6 +71,7 @@ from ridsafe.sim_backend.targets import (
     mask_rejection,
     yaw_rotate,
 )
+from ridsafe.sim_backend.wpnav import WaypointNav
 
 logger = logging.getLogger(__name__)
 PREARM_REPORT_PERIOD_S = 30.0
@@ -135,7 +138,10 @@ class Autopilot:
         config: AutopilotConfig | None = None,
         mission: Mission | None = None,
         remote_id_error: Callable[[float], str | None] | None = None,
+        controller: ControllerParams | None = None,
     ) -> None:
+        """``controller``: the vehicle controller's parameters; given, a WPNAV_SPEED below its
+        speed cap limits position-only targets (:mod:`.wpnav`)."""
         self.sysid = sysid
         self.vehicle = vehicle
         self.home = home
@@ -153,6 +159,10 @@ class Autopilot:
         self.failsafe_active = False
         self.rejected_targets = 0
         self.params: ParamStore = ParamStore(self.config, sysid)
+        self.wpnav: WaypointNav | None = None
+        if controller is not None:
+            self.wpnav = WaypointNav(actuators, self.params, controller)
+            self.actuators = self.wpnav
         self.missions = MissionStore()
         self.auto: AutoMission | None = None
         self.setpoints_in_stream = 0
@@ -161,6 +171,7 @@ class Autopilot:
         self._events: list[dict[str, object]] = []
         self._hold_enu_m: FloatArray | None = None
         self._status: list[m.StatusText] = []
+        self.fence = Fence()
 
     # -- what the vehicle says ------------------------------------------------------------
 
@@ -388,6 +399,9 @@ class Autopilot:
             self._on_ground(now_s)
         else:
             self.landed_since_s = None
+        self.fence.update(now_s, sample, self)
+        if self.wpnav is not None:
+            self.wpnav.update(sample)
         behaviour = MODE_RULES[self.mode].behaviour
         if behaviour is Behaviour.GUIDED:
             self._guided_failsafe(now_s, sample)
@@ -465,6 +479,24 @@ class Autopilot:
         mode = CopterMode.LAND if action is FailsafeAction.LAND else CopterMode.RTL
         self.mode = mode
         self._hold_enu_m = sample.p_enu_m.copy()
+
+    def say(self, severity: m.MavSeverity, text: str) -> None:
+        """A STATUSTEXT from this autopilot (for its parts: fence, missions)."""
+        self._say(severity, text)
+
+    def record_event(self, event: dict[str, object]) -> None:
+        self._events.append({"sysid": self.sysid, **event})
+
+    def enter_failsafe_mode(self, mode: CopterMode, sample: VehicleSample) -> None:
+        """Switch to ``mode`` (RTL, LAND or BRAKE) from where the vehicle is now."""
+        self.mode = mode
+        self._hold_enu_m = sample.p_enu_m.copy()
+        if MODE_RULES[mode].behaviour is Behaviour.HOLD:
+            self.actuators.set_target(
+                self.vehicle, position_enu_m=sample.p_enu_m, yaw_rad=sample.psi_rad
+            )
+            self.target_has_velocity = False
+        self._say(m.MavSeverity.INFO, f"Mode {mode.name}")
 
     def land_here(self, sample: VehicleSample, hold_enu_m: FloatArray | None = None) -> None:
         """One tick of LAND's descent (also AUTO's NAV_LAND), over ``hold_enu_m`` if given."""

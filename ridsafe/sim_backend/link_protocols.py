@@ -9,6 +9,7 @@ protocol, TIMESYNC, REQUEST_DATA_STREAM and the mission protocol (ArduCopter's b
 - REQUEST_DATA_STREAM: ArduCopter's stream groups (``STREAM_GROUPS``) -> message ids; a rate
   of 0 or ``start`` False stops the group.
 - TIMESYNC with ``tc1`` 0 -> TIMESYNC(tc1 = the vehicle's clock in ns, ts1 echoed).
+- FILE_TRANSFER_PROTOCOL: the parameter file over MAVLink FTP (:mod:`.ftp`).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from ridsafe.common import protocol_messages as pm
 from ridsafe.common.messages import MavResult
 from ridsafe.sim_backend import telemetry as t
 from ridsafe.sim_backend.autopilot import Autopilot, CommandContext
+from ridsafe.sim_backend.ftp import FtpServer
 from ridsafe.sim_backend.mission_protocol import MISSION_MESSAGES, MissionTransfer
 from ridsafe.sim_backend.param_table import STREAM_GROUPS
 from ridsafe.sim_backend.telemetry import TelemetrySchedule
@@ -38,7 +40,7 @@ _BY_SUFFIX = {suffix: ids for suffix, ids in DATA_STREAMS.values()}
 assert set(_BY_SUFFIX) == set(STREAM_GROUPS)
 
 PARAM_MESSAGES = (pm.ParamRequestList, pm.ParamRequestRead, pm.ParamSet)
-LINK_MESSAGES = (*PARAM_MESSAGES, pm.RequestDataStream, *MISSION_MESSAGES)
+LINK_MESSAGES = (*PARAM_MESSAGES, pm.RequestDataStream, *MISSION_MESSAGES, pm.FileTransferProtocol)
 
 
 def set_stream_rate(schedule: TelemetrySchedule, msg_ids: tuple[int, ...], rate_hz: float) -> None:
@@ -53,6 +55,7 @@ class LinkResponder:
     sysid: int
     serial: int
     missions: MissionTransfer = field(init=False)
+    ftp: FtpServer = field(default_factory=FtpServer)
 
     def __post_init__(self) -> None:
         self.missions = MissionTransfer(self.sysid)
@@ -70,6 +73,8 @@ class LinkResponder:
         if isinstance(msg, pm.RequestDataStream):
             self._data_stream(msg, schedule)
             return []
+        if isinstance(msg, pm.FileTransferProtocol):
+            return list(self.ftp.handle(msg, autopilot.params, client))
         if isinstance(msg, MISSION_MESSAGES):
             home = autopilot.home.home_geodetic
             out, target = self.missions.handle(

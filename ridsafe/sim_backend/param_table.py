@@ -4,8 +4,9 @@
 (PARAM_REQUEST_LIST / PARAM_REQUEST_READ / PARAM_SET -> PARAM_VALUE). A row either drives
 behaviour (the autopilot reads it through ``ParamStore`` every time it needs it, so a
 PARAM_SET takes effect at once) or is carried for ground stations that expect it (the
-``FENCE_*`` rows: the sim has no geofence; the ``WPNAV_*`` speeds: the sim's controller
-limits apply; ``used`` False says so).
+``WPNAV_*`` climb/descent speeds and ``FENCE_MARGIN``: the sim's controller limits apply;
+``used`` False says so). The geofence (``FENCE_*``) is :mod:`ridsafe.sim_backend.fence`,
+``WPNAV_SPEED`` :mod:`ridsafe.sim_backend.wpnav`.
 
 Units are ArduCopter's (RTL_ALT in cm, RTL_SPEED in cm/s, ...); defaults that the sim's
 ``AutopilotConfig`` sets come from it, so a default run behaves as before the table existed.
@@ -71,18 +72,18 @@ PARAMS: tuple[ParamSpec, ...] = (
     ParamSpec("LAND_ALT_LOW", lambda c: c.land_final_alt_m * 100.0, low=100, high=10000),
     ParamSpec("RTL_ALT", lambda c: c.rtl_alt_m * 100.0, low=30, high=300000),
     ParamSpec("RTL_SPEED", lambda c: c.rtl_speed_m_s * 100.0, low=0, high=2000),
-    ParamSpec("WPNAV_SPEED", _fixed(1000.0), low=20, high=2000, used=False),
+    ParamSpec("WPNAV_SPEED", _fixed(1000.0), low=20, high=2000),
     ParamSpec("WPNAV_SPEED_UP", _fixed(250.0), low=10, high=1000, used=False),
     ParamSpec("WPNAV_SPEED_DN", _fixed(150.0), low=10, high=500, used=False),
     ParamSpec("WPNAV_RADIUS", _fixed(200.0), low=5, high=1000),
     ParamSpec("SIM_OFB_LOSS_T", lambda c: c.companion_loss_timeout_s, low=0.0, high=3600.0),
     ParamSpec("SIM_OFB_LOSS_ACT", lambda c: float(c.companion_loss_action), ParamType.INT8, 0, 2),
     ParamSpec("SIM_PREARM_T", lambda c: c.prearm_delay_s, low=0.0, high=3600.0),
-    _int("FENCE_ENABLE", 0, 0, 1, used=False),
-    _int("FENCE_TYPE", 7, 0, 15, used=False),
-    _int("FENCE_ACTION", 1, 0, 7, used=False),
-    ParamSpec("FENCE_ALT_MAX", _fixed(100.0), low=10, high=1000, used=False),
-    ParamSpec("FENCE_RADIUS", _fixed(300.0), low=30, high=10000, used=False),
+    _int("FENCE_ENABLE", 0, 0, 1),
+    _int("FENCE_TYPE", 7, 0, 15),
+    _int("FENCE_ACTION", 1, 0, 5),
+    ParamSpec("FENCE_ALT_MAX", _fixed(100.0), low=10, high=1000),
+    ParamSpec("FENCE_RADIUS", _fixed(300.0), low=30, high=10000),
     ParamSpec("FENCE_MARGIN", _fixed(2.0), low=1, high=10, used=False),
     _int("FS_GCS_ENABLE", 0, 0, 7, used=False),
     _int("SYSID_THISMAV", 1, 1, 255, used=False),
@@ -103,6 +104,7 @@ class ParamStore:
     def __init__(self, config: AutopilotConfig, sysid: int) -> None:
         self.values = [float(spec.default(config)) for spec in PARAMS]
         self.values[_BY_NAME["SYSID_THISMAV"]] = float(sysid)
+        self.defaults = list(self.values)  # what the parameter file's defaults say
 
     def __len__(self) -> int:
         return len(PARAMS)

@@ -45,7 +45,7 @@ AUTOPILOT_VERSION = ids.MAVLINK_MSG_ID_AUTOPILOT_VERSION
 # Gyro, accel, mag, baro, GPS, motor outputs, AHRS: present, enabled, healthy.
 _SENSORS = 0x1 | 0x2 | 0x4 | 0x8 | 0x20 | 0x8000 | 0x200000
 _PREARM = 0x10000000  # MAV_SYS_STATUS_PREARM_CHECK: healthy once arming checks pass
-_GEOFENCE = 0x100000  # not present (FENCE_ENABLE 0) but healthy: no "fence breach"
+_GEOFENCE = 0x100000  # present with FENCE_ENABLE; always healthy unless breached
 _BATTERY_V = 25.2  # 6S full; the sim has no battery model
 
 
@@ -227,9 +227,14 @@ class FleetSnapshot:
         p, q, r = frames.body_rates_flu_to_frd(*(float(w) for w in self.rates_flu_rad_s[i]))
         return m.Attitude(self.now_s, roll, pitch, yaw, (p, q, r))
 
-    def sys_status(self, _i: int, prearm_ok: bool = True) -> m.SysStatus:
-        health = _SENSORS | _GEOFENCE | (_PREARM if prearm_ok else 0)
-        return m.SysStatus(_SENSORS | _PREARM, _SENSORS | _PREARM, health, 15.0, _BATTERY_V, 100)
+    def sys_status(
+        self, _i: int, prearm_ok: bool = True, fence_on: bool = False, fence_ok: bool = True
+    ) -> m.SysStatus:
+        """Geofence present and enabled with FENCE_ENABLE, healthy unless breached."""
+        fence = _GEOFENCE if fence_on else 0
+        health = _SENSORS | (_GEOFENCE if fence_ok else 0) | (_PREARM if prearm_ok else 0)
+        present = _SENSORS | _PREARM | fence
+        return m.SysStatus(present, present, health, 15.0, _BATTERY_V, 100)
 
     def system_time(self, _i: int) -> m.SystemTime:
         return m.SystemTime(self.unix_s, self.now_s)
@@ -300,7 +305,9 @@ BUILDERS: dict[int, Builder] = {
     GLOBAL_POSITION_INT: lambda snapshot, i, ap: snapshot.global_position_int(i),
     LOCAL_POSITION_NED: lambda snapshot, i, ap: snapshot.local_position_ned(i),
     ATTITUDE: lambda snapshot, i, ap: snapshot.attitude(i),
-    SYS_STATUS: lambda snapshot, i, ap: snapshot.sys_status(i, ap.prearm_ok(snapshot.now_s)),
+    SYS_STATUS: lambda snapshot, i, ap: snapshot.sys_status(
+        i, ap.prearm_ok(snapshot.now_s), ap.fence.enabled(ap), ap.fence.healthy()
+    ),
     SYSTEM_TIME: lambda snapshot, i, ap: snapshot.system_time(i),
     HOME_POSITION: lambda snapshot, i, ap: snapshot.home_position(i),
     EXTENDED_SYS_STATE: FleetSnapshot.extended_sys_state,

@@ -211,6 +211,7 @@ class SimBackend:
             config=self.config.autopilot,
             mission=mission,
             remote_id_error=self.transponders[i].ready_error,
+            controller=self.config.controller,
         )
 
     def _make_port(self, sysid: int, kind: EndpointKind) -> _Port:

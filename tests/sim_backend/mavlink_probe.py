@@ -4,6 +4,7 @@ pymavlink, and what came back, reduced to what must match between the sim and Ar
 from __future__ import annotations
 
 import os
+import struct
 import time
 from typing import Any
 
@@ -64,6 +65,27 @@ class Probe:
                 break
         return len(names)
 
+    def ftp_open_params(self) -> str | None:
+        """MAVLink FTP OpenFileRO of ``@PARAM/param.pck`` (then TerminateSession): "ACK" with a
+        size, else the NAK's error code, None without an answer."""
+        path = b"@PARAM/param.pck"
+        header = struct.pack("<HBBBBBBI", 1, 0, 4, len(path), 0, 0, 0, 0)  # OpenFileRO
+        payload = list((header + path).ljust(251, b"\0"))
+        self.conn.mav.file_transfer_protocol_send(0, self.conn.target_system, 1, payload)
+        reply = self.wait("FILE_TRANSFER_PROTOCOL", 10.0)
+        if reply is None:
+            return None
+        _seq, _session, opcode, size, req_opcode = struct.unpack_from(
+            "<HBBBB", bytes(reply.payload)
+        )
+        data = bytes(reply.payload[12 : 12 + size])
+        end = struct.pack("<HBBBBBBI", 2, 0, 1, 0, 0, 0, 0, 0)  # TerminateSession
+        self.conn.mav.file_transfer_protocol_send(0, self.conn.target_system, 1,
+                                                  list(end.ljust(251, b"\0")))  # fmt: skip
+        if opcode == 128 and req_opcode == 4 and size == 4:
+            return "ACK" if struct.unpack("<I", data)[0] > 6 else "ACK empty"
+        return f"NAK {data[:1].hex()}"
+
     def mission_count(self, mission_type: int) -> int | None:
         self.conn.mav.mission_request_list_send(self.conn.target_system, 1, mission_type)
         msg = self.wait("MISSION_COUNT", mission_type=mission_type)
@@ -102,6 +124,7 @@ def ask(port: int, ready_text: str | None = None, ready_timeout_s: float = 120.0
         probe.conn.mav.timesync_send(0, 123456789)
         sync = probe.wait("TIMESYNC", ts1=123456789)
         answers["TIMESYNC"] = sync is not None and sync.tc1 != 0
+        answers["FTP open @PARAM/param.pck"] = probe.ftp_open_params()
         probe.command_long(511, mav.MAVLINK_MSG_ID_SYS_STATUS, 500_000)
         status = probe.wait("SYS_STATUS", 10.0)
         prearm = mav.MAV_SYS_STATUS_PREARM_CHECK

@@ -24,11 +24,11 @@ MODULES = "mode,wp,param,fence,rally,cmdlong,arm,misc"
 class Console:
     """A MAVProxy process; ``lines`` collects everything it prints."""
 
-    def __init__(self, cwd: Path) -> None:
+    def __init__(self, cwd: Path, port: int = GCS_BASE, modules: str = MODULES) -> None:
         assert MAVPROXY is not None
         self.proc = subprocess.Popen(
-            [sys.executable, MAVPROXY, "--master", f"udpin:127.0.0.1:{GCS_BASE}", "--nowait",
-             "--default-modules", MODULES],
+            [sys.executable, MAVPROXY, "--master", f"udpin:127.0.0.1:{port}", "--nowait",
+             "--default-modules", modules],
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
             cwd=cwd,
         )  # fmt: skip

@@ -47,6 +47,7 @@ def test_the_sim_alone_answers_every_question() -> None:
     assert all(answers[k] is True for k in answers if k.startswith("streamed")), answers
     assert answers["AUTOPILOT_VERSION"] and answers["TIMESYNC"] and answers["prearm bit"]
     assert answers["data stream POSITION"] and answers["guided MISSION_ITEM_INT"] == 0
+    assert answers["FTP open @PARAM/param.pck"] == "ACK"
 
 
 @pytest.mark.slow

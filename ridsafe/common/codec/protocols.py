@@ -439,6 +439,26 @@ def _reached_from(raw: Any) -> p.MissionItemReached:
     return p.MissionItemReached(raw.seq)
 
 
+FTP_PAYLOAD_LEN = 251
+
+
+def _ftp_to(msg: p.FileTransferProtocol) -> Wire:
+    payload = list(msg.payload.ljust(FTP_PAYLOAD_LEN, b"\0")[:FTP_PAYLOAD_LEN])
+    return wire(
+        mav.MAVLink_file_transfer_protocol_message,
+        msg.target_network,
+        msg.target_system,
+        msg.target_component,
+        payload,
+    )
+
+
+def _ftp_from(raw: Any) -> p.FileTransferProtocol:
+    return p.FileTransferProtocol(
+        raw.target_network, raw.target_system, raw.target_component, bytes(raw.payload)
+    )
+
+
 CODECS: CodecTable = {
     p.CommandInt: ("COMMAND_INT", _command_int_to, _command_int_from),
     p.ParamRequestList: (
@@ -488,4 +508,5 @@ CODECS: CodecTable = {
     p.MissionSetCurrent: ("MISSION_SET_CURRENT", _set_current_to, _set_current_from),
     p.MissionCurrent: ("MISSION_CURRENT", _current_to, _current_from),
     p.MissionItemReached: ("MISSION_ITEM_REACHED", _reached_to, _reached_from),
+    p.FileTransferProtocol: ("FILE_TRANSFER_PROTOCOL", _ftp_to, _ftp_from),
 }

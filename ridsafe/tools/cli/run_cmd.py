@@ -16,7 +16,7 @@ import math
 import sys
 import time
 from pathlib import Path
-from typing import NoReturn
+from typing import TYPE_CHECKING, NoReturn
 
 import yaml
 from tqdm import tqdm
@@ -30,6 +30,9 @@ from ridsafe.tools.cli.arg_types import non_negative_int, positive_float, positi
 from ridsafe.tools.run.live import run_live
 from ridsafe.tools.run.lockstep import run_lockstep
 from ridsafe.tools.run.scenario import ScenarioFile, with_aircraft
+
+if TYPE_CHECKING:
+    from ridsafe.tools.runlog.foxglove_live import FoxgloveLiveServer as LiveServer
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -52,6 +55,12 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--duration", type=positive_float, help="flight time (s), default the scenario's"
     )
     parser.add_argument("--json", action="store_true", help="print the metrics as JSON")
+    parser.add_argument(
+        "--foxglove",
+        metavar="[HOST:]PORT",
+        help="serve the run's channels live to the Foxglove app (WebSocket; host default "
+        "127.0.0.1; needs the 'live' extra). live mode: the sim's channels",
+    )
     parser.set_defaults(func=run)
 
 
@@ -78,6 +87,10 @@ def run(args: argparse.Namespace) -> int:
         if planner not in PLANNERS:
             raise ValueError(f"unknown planner {planner!r} (known: {', '.join(PLANNERS)})")
         app_args.check_speed(args)
+        if args.foxglove:
+            from ridsafe.tools.runlog.foxglove_live import parse_host_port  # noqa: PLC0415
+
+            parse_host_port(args.foxglove)
     except (RidsafeError, ValueError, OSError) as exc:
         print(f"ridsafe run: {exc}", file=sys.stderr)
         return 2
@@ -96,9 +109,9 @@ def run(args: argparse.Namespace) -> int:
         flush=True,
     )
     if args.mode == "lockstep":
-        status, reason = _lockstep(loaded, planner, out)
+        status, reason = _lockstep(loaded, planner, out, args.foxglove)
     else:
-        status, reason = _live(loaded, planner, out, scenario_path, args.speed)
+        status, reason = _live(loaded, planner, out, scenario_path, args.speed, args.foxglove)
     return _report(out, status, reason, args.json)
 
 
@@ -121,17 +134,34 @@ class _SimTimeBar:
             self.bar.close()
 
 
-def _lockstep(loaded: ScenarioFile, planner: str, out: Path) -> tuple[str, str]:
+def _lockstep(
+    loaded: ScenarioFile, planner: str, out: Path, foxglove: str | None
+) -> tuple[str, str]:
     bar = _SimTimeBar(loaded.scenario.duration_s)
+    live: LiveServer | None = None
     try:
-        result = run_lockstep(loaded, planner, out / "run.mcap", bar)
+        if foxglove:
+            from ridsafe.tools.runlog import foxglove_live  # noqa: PLC0415 (an optional extra)
+
+            live = foxglove_live.FoxgloveLiveServer(
+                *foxglove_live.parse_host_port(foxglove), loaded.scenario.origin
+            )
+            print(f"Foxglove: open {live.url}", file=sys.stderr, flush=True)
+        result = run_lockstep(loaded, planner, out / "run.mcap", bar, live=live)
     finally:
         bar.close()
+        if live is not None:
+            live.close()
     return result.status, result.reason
 
 
 def _live(
-    loaded: ScenarioFile, planner: str, out: Path, scenario_path: Path, speed: float
+    loaded: ScenarioFile,
+    planner: str,
+    out: Path,
+    scenario_path: Path,
+    speed: float,
+    foxglove: str | None,
 ) -> tuple[str, str]:
     print("compiled kernels: ", end="", file=sys.stderr, flush=True)
 
@@ -140,7 +170,7 @@ def _live(
 
     bar = _SimTimeBar(loaded.scenario.duration_s)
     try:
-        outcome = run_live(loaded, planner, out, scenario_path, speed, bar, warm)
+        outcome = run_live(loaded, planner, out, scenario_path, speed, bar, warm, foxglove)
     finally:
         bar.close()
     for note in outcome.notes:

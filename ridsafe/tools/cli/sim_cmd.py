@@ -40,6 +40,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         type=Path,
         help="MAVLink 2 signing key of the companion ports (only signed frames are taken)",
     )
+    parser.add_argument(
+        "--foxglove", metavar="[HOST:]PORT", help="serve the channels live to the Foxglove app"
+    )
     parser.set_defaults(func=run)
 
 
@@ -72,6 +75,13 @@ def run(args: argparse.Namespace) -> int:
         print(f"ridsafe sim: {exc}", file=sys.stderr)
         return 2
     sink = process.open_sink(args.log, loaded.scenario.origin, loaded.run.foxglove_channels)
+    if args.foxglove:
+        try:
+            sink = process.with_live_view(sink, args.foxglove, loaded.scenario.origin)
+        except RidsafeError as exc:
+            process.close_sink(sink)
+            print(f"ridsafe sim: {exc}", file=sys.stderr)
+            return 2
     backend = build_backend(loaded, sink, autopilot_signing)
     try:
         endpoints = open_endpoints(backend, loaded.sim.ports)

@@ -138,13 +138,20 @@ def stop(children: Sequence[Child]) -> None:
 
 
 def children(
-    loaded: ScenarioFile, planner: str, out: Path, scenario_path: Path, speed: float, t0: float
+    loaded: ScenarioFile,
+    planner: str,
+    out: Path,
+    scenario_path: Path,
+    speed: float,
+    t0: float,
+    live_view: str | None = None,
 ) -> list[Child]:
     """What a live run starts: the sim, the GCS and the companions in groups, each with the
     effective scenario file, the start instant and a part log (and a fresh signing key for
     the GCS links when ``run.sign_gcs_links``, written to ``OUT/mavlink.key``, and one for
     the companion <-> autopilot links when ``run.sign_autopilot_links``, in
-    ``OUT/autopilot.key``)."""
+    ``OUT/autopilot.key``); the sim serves the live Foxglove view on ``live_view``
+    ([HOST:]PORT) if given."""
     duration = loaded.scenario.duration_s
     common = [str(scenario_path), "--speed", repr(speed), "--duration", repr(duration)]
     common += ["--t0-unix", repr(t0)]
@@ -165,7 +172,8 @@ def children(
     parts, logs = out / "parts", out / "logs"
     started = [
         Child("sim", cli_argv("sim", *common, *autopilot_signing,
-                              "--log", str(parts / "sim.mcap")),
+                              "--log", str(parts / "sim.mcap"),
+                              *(("--foxglove", live_view) if live_view else ())),
               logs / "sim.log"),
         Child("gcs", cli_argv("gcs", *common, "--listen", loaded.run.gcs_listen,
                               *signing, "--log", str(parts / "gcs.mcap")),
@@ -193,6 +201,7 @@ def run_live(
     speed: float,
     on_progress: Callable[[float], None] | None = None,
     on_warm: Callable[[float], None] | None = None,
+    live_view: str | None = None,
 ) -> LiveOutcome:
     """Fly the scenario live into ``out`` (see the module docstring); ``on_warm`` hears how
     long compiling the kernels took, ``on_progress`` the sim time now and then."""
@@ -204,7 +213,7 @@ def run_live(
     if on_warm is not None:
         on_warm(warm_s)
     t0 = time.time() + STARTUP_MARGIN_S
-    started = children(loaded, planner, out, scenario_path, speed, t0)
+    started = children(loaded, planner, out, scenario_path, speed, t0, live_view)
     own = parts / "run.mcap"
     foxglove = loaded.run.foxglove_channels
     with process.open_run_log(own, loaded.scenario.origin, foxglove) as recorder:

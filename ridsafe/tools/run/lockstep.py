@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ridsafe.common import codec, topics
-from ridsafe.common.logsink import LogSink, NullSink
+from ridsafe.common.logsink import LogSink, NullSink, TeeSink
 from ridsafe.common.router import ByteRouter, Wire
 from ridsafe.common.shell import SansIoCore
 from ridsafe.companion.companion import Companion
@@ -139,16 +139,19 @@ def run_lockstep(
     log_path: Path,
     on_progress: Callable[[float], None] | None = None,
     recorder_process: bool = True,
+    live: LogSink | None = None,
 ) -> RunResult:
     """Fly the scenario for its duration, logging to ``log_path``; Ctrl-C ends it early
     with a valid log. ``recorder_process``: write the log from a child process (on the other
-    core; the same file), else from this one (a sweep's workers already use every core)."""
+    core; the same file), else from this one (a sweep's workers already use every core).
+    ``live``: a second sink that sees every record too (the live Foxglove view)."""
     wall_start = time.perf_counter()
     status, reason = "completed", ""
     foxglove = loaded.run.foxglove_channels
     origin = loaded.scenario.origin
     log = process.open_run_log(log_path, origin, foxglove, child_process=recorder_process)
-    with log as recorder:
+    with log as written:
+        recorder = written if live is None else TeeSink((written, live))
         run_records.log_meta(recorder, run_records.run_meta(loaded, "lockstep", planner))
         build_start = time.perf_counter()
         run = build(loaded, planner, recorder)

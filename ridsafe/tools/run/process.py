@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 from ridsafe.common.clock import EpochClock, MonotonicClock
 from ridsafe.common.codec import SigningConfig, load_signing_key, signing_timestamp_from_unix
 from ridsafe.common.frames import GeodeticOrigin
-from ridsafe.common.logsink import LogSink, NullSink
+from ridsafe.common.logsink import LogSink, NullSink, TeeSink
 from ridsafe.common.runner import RunnerClock
 
 if TYPE_CHECKING:
@@ -92,10 +92,26 @@ def open_sink(path: Path | None, origin: GeodeticOrigin, foxglove: bool = True) 
     return open_run_log(path, origin, foxglove)
 
 
+def with_live_view(sink: LogSink, address: str, origin: GeodeticOrigin) -> LogSink:
+    """``sink`` and a live Foxglove view on ``address`` ([HOST:]PORT) for every record; the
+    result's ``close`` closes both (:func:`close_sink`)."""
+    from ridsafe.tools.runlog.foxglove_live import (  # noqa: PLC0415 (an optional extra)
+        FoxgloveLiveServer,
+        parse_host_port,
+    )
+
+    host, port = parse_host_port(address)
+    server = FoxgloveLiveServer(host, port, origin)
+    logger.info("serving the run live to Foxglove at %s", server.url)
+    return TeeSink((sink, server))
+
+
 def close_sink(sink: LogSink) -> None:
-    close = getattr(sink, "close", None)
-    if callable(close):
-        close()
+    """Close ``sink`` (and every sink of a ``TeeSink``) if it can be closed."""
+    for each in sink.sinks if isinstance(sink, TeeSink) else (sink,):
+        close = getattr(each, "close", None)
+        if callable(close):
+            close()
 
 
 def signing_from_file(path: Path | None) -> SigningConfig | None:

@@ -46,11 +46,17 @@ from ridsafe.common.logsink import Record
 __all__ = [
     "DEFAULT_CHUNK_SIZE",
     "DEFAULT_FLUSH_EVERY_S",
+    "JSONSCHEMA_ENCODING",
     "JSON_ENCODING",
     "DerivedChannels",
     "McapRecorder",
+    "RecordEncoder",
     "RecorderError",
     "WriterPlugin",
+    "derived_bytes",
+    "run_plugins",
+    "schema_bytes",
+    "topic_schema",
 ]
 
 logger = logging.getLogger(__name__)
@@ -59,7 +65,7 @@ DEFAULT_CHUNK_SIZE = 256 * 1024
 DEFAULT_FLUSH_EVERY_S = 5.0
 METADATA_NAME = "ridsafe.recorder"
 JSON_ENCODING = "json"
-_JSONSCHEMA = "jsonschema"
+JSONSCHEMA_ENCODING = "jsonschema"
 LIBRARY = "ridsafe.tools.runlog (mcap-python)"
 
 
@@ -155,6 +161,86 @@ _JSON_SCALARS = (str, int, float, np.generic, np.ndarray)
 
 
 # --------------------------------------------------------------------------------------------
+# What every sink of run records shares (the MCAP recorder, the live Foxglove server)
+
+
+def topic_schema(topic: str, record: Record) -> Mapping[str, Any]:
+    """The JSON schema of ``topic``'s channel (``topics.schema``), warning when its first
+    ``record`` lacks required fields; a permissive one (and a warning) for an unknown topic."""
+    if topic in topics.TOPICS:
+        schema = topics.schema(topic)
+        missing = [name for name in schema["required"] if name not in record]
+        if missing:
+            logger.warning("%s: first record lacks required fields %s", topic, missing)
+        return schema
+    logger.warning("%s: not in ridsafe.common.topics.TOPICS; permissive schema", topic)
+    return {"title": topic, "type": "object"}
+
+
+def schema_bytes(schema: Mapping[str, Any]) -> bytes:
+    """A JSON schema as a channel's schema data."""
+    return json.dumps(schema, separators=(",", ":")).encode()
+
+
+def derived_bytes(message: Any) -> bytes:
+    """A plug-in's message (a dict, or JSON text already encoded) as message data."""
+    text = message if isinstance(message, str) else _ENCODER.encode(message)
+    return text.encode()
+
+
+class RecordEncoder:
+    """A record as its message data: compact JSON with ``t_s`` first (unless the record has
+    one), non-finite numbers written as null and counted in ``nonfinite`` per
+    ``"topic:field path"`` (one warning each)."""
+
+    def __init__(self) -> None:
+        self.nonfinite: dict[str, int] = {}
+
+    def encode(self, topic: str, t_s: float, record: Record) -> bytes:
+        try:
+            body = _ENCODER.encode(record)
+        except ValueError:  # non-finite float (allow_nan=False)
+            body = _ENCODER.encode(self._nulled(topic, record))
+        except TypeError as exc:
+            where = _unserialisable_path(record)
+            raise RecorderError(f"{topic}: field {where} cannot be written as JSON") from exc
+        if "t_s" in record:
+            return body.encode()
+        head = '{"t_s":' + repr(float(t_s))
+        return (head + "}" if body == "{}" else head + "," + body[1:]).encode()
+
+    def _nulled(self, topic: str, record: Record) -> Any:
+        found: list[str] = []
+        clean = _sanitise(record, "", found)
+        for path in found:
+            key = f"{topic}:{path}"
+            if key not in self.nonfinite:
+                logger.warning("%s: non-finite number written as null (counted)", key)
+                self.nonfinite[key] = 0
+            self.nonfinite[key] += 1
+        return clean
+
+
+def run_plugins(
+    plugins: Sequence[WriterPlugin],
+    topic: str,
+    t_s: float,
+    record: Record,
+    out: DerivedChannels,
+    warned: set[str],
+) -> None:
+    """Each plug-in's view of ``record``; an error costs that view (one warning per topic in
+    ``warned``), never the record."""
+    for plugin in plugins:
+        try:
+            plugin.on_record(topic, t_s, record, out)
+        except (KeyError, TypeError, ValueError, IndexError) as exc:
+            if topic not in warned:
+                warned.add(topic)
+                logger.warning("%s: no derived view of this record (%r); skipped", topic, exc)
+
+
+# --------------------------------------------------------------------------------------------
 # Writing
 
 
@@ -188,7 +274,7 @@ class McapRecorder:
         self._channel_ids: dict[str, int] = {}
         self._schema_ids: dict[str, int] = {}
         self._warned: set[str] = set()
-        self._nonfinite: dict[str, int] = {}
+        self._encoder = RecordEncoder()
         self.message_count = 0
         self._flush_every_s = flush_every_s
         self._next_flush_s = flush_every_s if flush_every_s is not None else math.inf
@@ -207,7 +293,7 @@ class McapRecorder:
         if channel_id is None:
             channel_id = self._open_topic(topic, record)
         log_time = _log_time_ns(topic, t_s)
-        data = self._encode(topic, t_s, record)
+        data = self._encoder.encode(topic, t_s, record)
         self._writer.add_message(channel_id, log_time, data, log_time)
         self.message_count += 1
         plugins = self._plugins_by_topic.get(topic)
@@ -221,7 +307,7 @@ class McapRecorder:
     @property
     def nonfinite_counts(self) -> Mapping[str, int]:
         """``"topic:field path"`` -> how many non-finite numbers were written as null."""
-        return dict(self._nonfinite)
+        return dict(self._encoder.nonfinite)
 
     def flush(self) -> None:
         """Close the open chunk and push everything written so far to the file."""
@@ -240,7 +326,7 @@ class McapRecorder:
             return
         self._closed = True
         try:
-            counts = json.dumps(self._nonfinite, sort_keys=True)
+            counts = json.dumps(self._encoder.nonfinite, sort_keys=True)
             self._writer.add_metadata(
                 METADATA_NAME, {"messages": str(self.message_count), "nonfinite_nulled": counts}
             )
@@ -257,62 +343,24 @@ class McapRecorder:
     # -- channels and encoding ----------------------------------------------------------------
 
     def _open_topic(self, topic: str, record: Record) -> int:
-        if topic in topics.TOPICS:
-            schema = topics.schema(topic)
-            missing = [name for name in schema["required"] if name not in record]
-            if missing:
-                logger.warning("%s: first record lacks required fields %s", topic, missing)
-        else:
-            logger.warning("%s: not in ridsafe.common.topics.TOPICS; permissive schema", topic)
-            schema = {"title": topic, "type": "object"}
-        return self._register(topic, topic, schema)
+        return self._register(topic, topic, topic_schema(topic, record))
 
     def _register(self, topic: str, schema_name: str, schema: Mapping[str, Any]) -> int:
         schema_id = self._schema_ids.get(schema_name)
         if schema_id is None:
-            data = json.dumps(schema, separators=(",", ":")).encode()
-            schema_id = self._writer.register_schema(schema_name, _JSONSCHEMA, data)
+            data = schema_bytes(schema)
+            schema_id = self._writer.register_schema(schema_name, JSONSCHEMA_ENCODING, data)
             self._schema_ids[schema_name] = schema_id
         channel_id: int = self._writer.register_channel(topic, JSON_ENCODING, schema_id)
         self._channel_ids[topic] = channel_id
         return channel_id
-
-    def _encode(self, topic: str, t_s: float, record: Record) -> bytes:
-        try:
-            body = _ENCODER.encode(record)
-        except ValueError:  # non-finite float (allow_nan=False)
-            body = _ENCODER.encode(self._nulled(topic, record))
-        except TypeError as exc:
-            where = _unserialisable_path(record)
-            raise RecorderError(f"{topic}: field {where} cannot be written as JSON") from exc
-        if "t_s" in record:
-            return body.encode()
-        head = '{"t_s":' + repr(float(t_s))
-        return (head + "}" if body == "{}" else head + "," + body[1:]).encode()
-
-    def _nulled(self, topic: str, record: Record) -> Any:
-        found: list[str] = []
-        clean = _sanitise(record, "", found)
-        for path in found:
-            key = f"{topic}:{path}"
-            if key not in self._nonfinite:
-                logger.warning("%s: non-finite number written as null (counted)", key)
-                self._nonfinite[key] = 0
-            self._nonfinite[key] += 1
-        return clean
 
     # -- derived channels (plug-ins) -------------------------------------------------------
 
     def _run_plugins(
         self, topic: str, plugins: list[WriterPlugin], t_s: float, record: Record
     ) -> None:
-        for plugin in plugins:
-            try:
-                plugin.on_record(topic, t_s, record, self)
-            except (KeyError, TypeError, ValueError, IndexError) as exc:
-                if topic not in self._warned:
-                    self._warned.add(topic)
-                    logger.warning("%s: no derived view of this record (%r); skipped", topic, exc)
+        run_plugins(plugins, topic, t_s, record, self, self._warned)
 
     def write_derived(
         self, topic: str, schema_name: str, schema: Mapping[str, Any], t_s: float, message: Any
@@ -322,8 +370,7 @@ class McapRecorder:
         if channel_id is None:
             channel_id = self._register(topic, schema_name, schema)
         log_time = _log_time_ns(topic, t_s)
-        text = message if isinstance(message, str) else _ENCODER.encode(message)
-        self._writer.add_message(channel_id, log_time, text.encode(), log_time)
+        self._writer.add_message(channel_id, log_time, derived_bytes(message), log_time)
         self.message_count += 1
 
 

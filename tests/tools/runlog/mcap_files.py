@@ -4,7 +4,9 @@
 from __future__ import annotations
 
 import json
+import math
 import shutil
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -75,6 +77,7 @@ def meta_record() -> dict[str, Any]:
         "aircraft": [],
         "spoofer": None,
         "nmac_threshold_m": 50.0,
+        "adversaries": [],
     }
 
 
@@ -87,6 +90,7 @@ def truth_record(t_s: float) -> dict[str, Any]:
         "mode": [4, 4, 4],
         "spoofer_sysid": 3,
         "spoofer_claimed_p_enu_m": [-150.0 + 7 * t_s, 55.0, 60.0],
+        "adversaries": [],
     }
 
 
@@ -113,3 +117,28 @@ def by_topic(messages: list[dict[str, Any]]) -> dict[str, list[dict[str, Any]]]:
     for m in messages:
         grouped.setdefault(m["topic"], []).append(m)
     return grouped
+
+
+def check_schema(value: Any, schema: Mapping[str, Any], where: str) -> None:
+    """The subset of JSON Schema the Foxglove schemas use: type, properties, required,
+    items, minimum / maximum, minItems / maxItems (written here, independent of the writer)."""
+    kind = schema.get("type")
+    python_types: dict[str, type | tuple[type, ...]] = {
+        "object": dict, "array": list, "string": str, "boolean": bool,
+        "integer": int, "number": (int, float),
+    }  # fmt: skip
+    if kind is not None:
+        assert isinstance(value, python_types[kind]), f"{where}: {value!r} is no {kind}"
+        assert kind in ("boolean",) or not isinstance(value, bool), f"{where}: a bool"
+    if kind == "object":
+        for name in schema.get("required", ()):
+            assert name in value, f"{where}: missing {name}"
+        for name, sub in schema.get("properties", {}).items():
+            if name in value:
+                check_schema(value[name], sub, f"{where}.{name}")
+    if kind == "array":
+        assert schema.get("minItems", 0) <= len(value) <= schema.get("maxItems", math.inf)
+        for k, item in enumerate(value):
+            check_schema(item, schema.get("items", {}), f"{where}[{k}]")
+    if kind in ("number", "integer"):
+        assert schema.get("minimum", -math.inf) <= value <= schema.get("maximum", math.inf)

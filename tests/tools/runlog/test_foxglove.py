@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 import logging
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +27,7 @@ from tests.tools.runlog.mcap_files import (
     ORIGIN,
     FloatArray,
     by_topic,
+    check_schema,
     meta_record,
     raw_messages,
     region_record,
@@ -197,31 +198,6 @@ def test_without_the_plugin_the_log_has_only_the_records(tmp_path: Path) -> None
     assert logged == {topics.RUN_META, topics.TRUTH, topics.REGIONS}
 
 
-def _check_schema(value: Any, schema: Mapping[str, Any], where: str) -> None:
-    """The subset of JSON Schema the Foxglove schemas use: type, properties, required,
-    items, minimum / maximum, minItems / maxItems (written here, independent of the writer)."""
-    kind = schema.get("type")
-    python_types: dict[str, type | tuple[type, ...]] = {
-        "object": dict, "array": list, "string": str, "boolean": bool,
-        "integer": int, "number": (int, float),
-    }  # fmt: skip
-    if kind is not None:
-        assert isinstance(value, python_types[kind]), f"{where}: {value!r} is no {kind}"
-        assert kind in ("boolean",) or not isinstance(value, bool), f"{where}: a bool"
-    if kind == "object":
-        for name in schema.get("required", ()):
-            assert name in value, f"{where}: missing {name}"
-        for name, sub in schema.get("properties", {}).items():
-            if name in value:
-                _check_schema(value[name], sub, f"{where}.{name}")
-    if kind == "array":
-        assert schema.get("minItems", 0) <= len(value) <= schema.get("maxItems", math.inf)
-        for k, item in enumerate(value):
-            _check_schema(item, schema.get("items", {}), f"{where}[{k}]")
-    if kind in ("number", "integer"):
-        assert schema.get("minimum", -math.inf) <= value <= schema.get("maximum", math.inf)
-
-
 def test_every_derived_message_satisfies_the_schema_of_its_channel(tmp_path: Path) -> None:
     path = tmp_path / "run.mcap"
     log_a_scene(path, [FoxgloveChannels()])
@@ -229,7 +205,7 @@ def test_every_derived_message_satisfies_the_schema_of_its_channel(tmp_path: Pat
     assert {m["schema_name"] for m in derived} == set(SCHEMAS)
     for message in derived:
         assert message["schema"] == SCHEMAS[message["schema_name"]]
-        _check_schema(message["data"], message["schema"], message["topic"])
+        check_schema(message["data"], message["schema"], message["topic"])
 
 
 def test_the_origin_comes_from_run_meta_unless_given(tmp_path: Path) -> None:
