@@ -265,6 +265,13 @@ class RssiFilterConfig:
     reception_gate_sigma: float = 5.0
     #: Std of the receivers' reported positions, folded into each reception's variance.
     rx_position_sigma_m: float = 1.0
+    #: An update uses at most this many receptions (of those the gate kept): the ones nearest
+    #: the predicted position, which carry the most information (the RSSI's gradient is
+    #: 20 / (ln 10 d) dB per metre). 0: all. With 64 receivers an update cost 1.4 ms with all
+    #: of them and 0.74 ms with 32 (synthetic traffic); containment 0.996 / 0.994, RMSE
+    #: 5.7 / 5.8 m (4 seeds). Runs with at most this many receivers (every scenario up to 32
+    #: aircraft) are not changed by it.
+    max_receivers: int = 32
     #: The Gaussian sum (``localisation/gaussian_sum.py``): initial altitude hypotheses
     #: (moment-matched thirds of the 0-120 m band) and their std; one value gives a single IMM
     #: started with ``tracks.altitude_prior_std_m``.
@@ -309,6 +316,8 @@ class RssiFilterConfig:
             )
         check_positive("reception_gate_sigma", self.reception_gate_sigma)
         check_non_negative("rx_position_sigma_m", self.rx_position_sigma_m)
+        if self.max_receivers < 0:
+            raise FieldValueError("max_receivers", f"expected >= 0, got {self.max_receivers}")
         self._check_sum()
 
     def _check_sum(self) -> None:
