@@ -11,7 +11,8 @@ track's life.
 since the last cycle, and answers what it decided. Each cycle:
 
 1. every claim (in time order) goes through its claimed transmitter's detectors
-   (a ``TransmitterMonitor`` per uas_id heard, benign ones too) -> ``DetectorResult``s;
+   (a ``TransmitterMonitor`` per uas_id heard, benign ones too; all of a cycle's claims in
+   one batch, ``detection.monitor.observe_batch``) -> ``DetectorResult``s;
    it is kept ``max(backfill_s, window_s)`` seconds for track initiation, and updates the
    uas_id's track if there is one;
 2. alerts: the first decision of an alerting detector (``detection.alerting``) raises the
@@ -45,7 +46,7 @@ import numpy as np
 
 from ridsafe.common.messages import AlertState, RidsafeDetector
 from ridsafe.common.pathloss import received_power_dbm
-from ridsafe.gcs.detection.monitor import TransmitterMonitor
+from ridsafe.gcs.detection.monitor import TransmitterMonitor, observe_batch
 from ridsafe.gcs.localisation import mixture_kernels
 from ridsafe.gcs.pipeline_api import (
     AlertChange,
@@ -163,11 +164,8 @@ class EstimationPipeline:
             track.fixed_this_cycle = False
         results: list[DetectorResult] = []
         changes: list[AlertChange] = []
-        for claim in sorted(claims, key=lambda c: c.t_s):
-            if not _finite(claim):
-                logger.warning("claim of %s with non-finite values ignored", claim.uas_id)
-                continue
-            claim_results = self._detect(claim)
+        usable = [c for c in sorted(claims, key=lambda c: c.t_s) if self._usable(c)]
+        for claim, claim_results in zip(usable, self._detect(usable), strict=True):
             results.extend(claim_results)
             changes.extend(self._maybe_raise(claim.uas_id, claim.t_s, claim_results))
             live = self._tracks.get(claim.uas_id)
@@ -191,18 +189,31 @@ class EstimationPipeline:
 
     # --- detection and alerts -------------------------------------------------------------
 
-    def _detect(self, claim: ObservedClaim) -> tuple[DetectorResult, ...]:
+    @staticmethod
+    def _usable(claim: ObservedClaim) -> bool:
+        if _finite(claim):
+            return True
+        logger.warning("claim of %s with non-finite values ignored", claim.uas_id)
+        return False
+
+    def _detect(self, claims: Sequence[ObservedClaim]) -> list[tuple[DetectorResult, ...]]:
+        """Remember each claim for its transmitter and run its detectors: every claim of the
+        cycle through one batch (``detection.monitor.observe_batch``); detection never
+        depends on the tracks, so it may run before the cycle's track updates."""
         cfg = self.config
-        heard = self._heard.get(claim.uas_id)
-        if heard is None:
-            monitor = TransmitterMonitor(claim.uas_id, cfg)
-            heard = self._heard[claim.uas_id] = _Heard(monitor, deque(), claim.t_s)
-        heard.last_heard_s = max(heard.last_heard_s, claim.t_s)
         keep_s = max(cfg.tracks.backfill_s, cfg.detection.window_s)
-        heard.recent.append(claim)
-        while heard.recent and heard.recent[0].t_s < claim.t_s - keep_s:
-            heard.recent.popleft()
-        return heard.monitor.observe(claim)
+        monitors = []
+        for claim in claims:
+            heard = self._heard.get(claim.uas_id)
+            if heard is None:
+                monitor = TransmitterMonitor(claim.uas_id, cfg)
+                heard = self._heard[claim.uas_id] = _Heard(monitor, deque(), claim.t_s)
+            heard.last_heard_s = max(heard.last_heard_s, claim.t_s)
+            heard.recent.append(claim)
+            while heard.recent and heard.recent[0].t_s < claim.t_s - keep_s:
+                heard.recent.popleft()
+            monitors.append(heard.monitor)
+        return observe_batch(monitors, claims)
 
     def _detectors_may_alert(self) -> bool:
         forced = self.config.forced_alert
