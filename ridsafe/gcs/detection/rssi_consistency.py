@@ -271,11 +271,13 @@ class RssiConsistencyDetectors:
         stats, dofs, deltas = _run_kernel(
             pool, [banks[j].row for j in todo], [claims[j] for j in todo]
         )
-        p = chdtrc(dofs[:, _P_DOF], stats[:, _P_STAT]).tolist()
-        for j, stat, dof, delta, p_j in zip(
-            todo, stats.tolist(), dofs.tolist(), deltas, p, strict=True
+        p = chdtrc(dofs[:, _P_DOF], stats[:, _P_STAT])
+        # ``probit`` of the single-claim offset test (CUSUM's input), elementwise at once
+        z = np.where(dofs[:, 2] > 0, -ndtri(np.maximum(p[:, 3], 1e-300)), 0.0)
+        for j, nis, dof, delta, p_j, z_j in zip(
+            todo, stats[:, 0].tolist(), dofs.tolist(), deltas, p.tolist(), z.tolist(), strict=True
         ):
-            out[j] = banks[j]._results(stat, dof, delta, p_j)
+            out[j] = banks[j]._results(nis, dof, delta, p_j, z_j)
         return out
 
     def _start_reference(self, claim: ObservedClaim) -> None:
@@ -288,23 +290,25 @@ class RssiConsistencyDetectors:
             self.pool.y_ref[self.row] = self._y_ref
 
     def _results(
-        self, stat: list[float], dof: list[int], delta: FloatArray, p: list[float]
+        self, nis: float, dof: list[int], delta: FloatArray, p: list[float], z: float
     ) -> tuple[DetectorResult, ...]:
-        cfg = self.cfg
-        nis = stat[0]  # the p-values carry the other statistics
-        dof_one, wdof, rank_one, rank_win = dof
+        """One claim's results from the kernel's NIS, dofs, delta^, the p-values (spread,
+        window spread, window offset, single offset) and the single offset's probit."""
+        cfg, uas_id, thr = self.cfg, self.uas_id, self._thr
+        dof_one, wdof, _rank_one, rank_win = dof
         self.last_offset_enu_m = delta
-        self.cusum = max(0.0, self.cusum + _probit(p[3], rank_one) - cfg.cusum_drift)
+        self.cusum = cusum = max(0.0, self.cusum + z - cfg.cusum_drift)
+        spread = _surprisal(p[0], dof_one)
+        window = _surprisal(p[1], wdof)
+        mlat = _surprisal(p[2], rank_win)
+        nis_thr, cusum_thr = cfg.nis_threshold, cfg.cusum_threshold
         return (
-            self._result(RidsafeDetector.NIS, nis, cfg.nis_threshold),
-            self._result(RidsafeDetector.POWER_SPREAD, _surprisal(p[0], dof_one), self._thr),
-            self._result(RidsafeDetector.NIS_WINDOW, _surprisal(p[1], wdof), self._thr),
-            self._result(RidsafeDetector.CUSUM, self.cusum, cfg.cusum_threshold),
-            self._result(RidsafeDetector.MLAT, _surprisal(p[2], rank_win), self._thr),
+            DetectorResult(uas_id, RidsafeDetector.NIS, nis, nis_thr, nis > nis_thr),
+            DetectorResult(uas_id, RidsafeDetector.POWER_SPREAD, spread, thr, spread > thr),
+            DetectorResult(uas_id, RidsafeDetector.NIS_WINDOW, window, thr, window > thr),
+            DetectorResult(uas_id, RidsafeDetector.CUSUM, cusum, cusum_thr, cusum > cusum_thr),
+            DetectorResult(uas_id, RidsafeDetector.MLAT, mlat, thr, mlat > thr),
         )
-
-    def _result(self, det: RidsafeDetector, stat: float, thr: float) -> DetectorResult:
-        return DetectorResult(self.uas_id, det, stat, thr, stat > thr)
 
 
 #: The rows of every bank made without a pool of its own.

@@ -66,17 +66,17 @@ def _tx_row(
     y: FloatArray,
     d: FloatArray,
 ) -> FloatArray:
-    """This transmission's row of sums; fills ``y`` (implied powers) and ``d`` (distances)."""
+    """This transmission's row of sums; fills ``y`` (implied powers) and ``d`` (distances).
+    The offset gradient is kept in scalars (no array per reception); the operations and their
+    order are those of the numpy reference."""
     row = np.zeros(ROW)
     k = rx.shape[0]
     row[0] = k
     for i in range(k):
-        g = np.empty(3)
-        d2 = 0.0
-        for a in range(3):
-            g[a] = claimed[a] - rx[i, a]
-            d2 += g[a] * g[a]
-        d2 = max(d2, 1.0)
+        g0 = claimed[0] - rx[i, 0]
+        g1 = claimed[1] - rx[i, 1]
+        g2 = claimed[2] - rx[i, 2]
+        d2 = max(g0 * g0 + g1 * g1 + g2 * g2, 1.0)
         d[i] = math.sqrt(d2)
         y[i] = rssi[i] + 10.0 * math.log10(d2) + loss
         w = 1.0 / (s2 + pos2 / d2)
@@ -84,13 +84,26 @@ def _tx_row(
         row[1] += w
         row[2] += w * yc
         row[3] += w * yc * yc
-        for a in range(3):
-            g[a] *= DB_PER_LN / d2
-            row[4 + a] += w * g[a]
-            row[7 + a] += w * g[a] * yc
-        for a in range(3):
-            for c in range(3):
-                row[10 + 3 * a + c] += w * g[a] * g[c]
+        scale = DB_PER_LN / d2
+        g0 *= scale
+        g1 *= scale
+        g2 *= scale
+        wg0, wg1, wg2 = w * g0, w * g1, w * g2
+        row[4] += wg0
+        row[5] += wg1
+        row[6] += wg2
+        row[7] += wg0 * yc
+        row[8] += wg1 * yc
+        row[9] += wg2 * yc
+        row[10] += wg0 * g0
+        row[11] += wg0 * g1
+        row[12] += wg0 * g2
+        row[13] += wg1 * g0
+        row[14] += wg1 * g1
+        row[15] += wg1 * g2
+        row[16] += wg2 * g0
+        row[17] += wg2 * g1
+        row[18] += wg2 * g2
     return row
 
 
