@@ -325,7 +325,7 @@ def _run_kernel(
     """``observe_batch_kernel`` on ``claims``, claim j on pool row ``rows[j]``."""
     bounds = np.zeros(len(claims) + 1, dtype=np.int64)
     np.cumsum([c.rx_sysid.shape[0] for c in claims], out=bounds[1:])
-    return observe_batch_kernel(  # type: ignore[no-any-return]
+    return observe_batch_kernel(
         np.stack([c.claimed_p_enu_m for c in claims]),
         np.concatenate([c.rx_p_enu_m for c in claims]),
         np.concatenate([c.rssi_dbm for c in claims]),
@@ -333,8 +333,8 @@ def _run_kernel(
         bounds,
         np.array([c.t_s for c in claims]),
         np.array(rows, dtype=np.int64),
-        pool.pair_x,
-        pool.pair_P,
+        pool.pair_power_dbm,
+        pool.pair_var_db2,
         pool.pair_started,
         pool.ring,
         pool.ring_t,

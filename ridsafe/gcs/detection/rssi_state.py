@@ -3,8 +3,8 @@
 One row per transmitter's bank (``rssi_consistency.RssiConsistencyDetectors``), so the claims
 of a GCS cycle go through one compiled call (``observe_batch_kernel``) instead of one each:
 
-- ``pair_x``, ``pair_P`` : (M, 256) float64, ``pair_started`` : (M, 256) bool: the paper's
-  scalar Kalman filter per (receiver system id, transmitter);
+- ``pair_power_dbm``, ``pair_var_db2`` : (M, 256) float64, ``pair_started`` : (M, 256)
+  bool: the paper's scalar Kalman filter per (receiver system id, transmitter);
 - ``ring`` : (M, RING, ROW) float64 and ``ring_t`` : (M, RING) s: the window's per-claim
   sufficient statistics and their times (-inf: empty);
 - ``y_ref`` : (M,) dBm, the implied-power reference of the row's first claim;
@@ -15,6 +15,8 @@ full, the arrays double (banks keep their row number, never a view, so growing i
 """
 
 from __future__ import annotations
+
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -28,14 +30,23 @@ PAIR_SLOTS = 256
 #: The window keeps at most this many claims per transmitter.
 RING = 64
 _N_PARAMS = 7
+_Array = TypeVar("_Array", NDArray[np.float64], NDArray[np.bool_])
 
 
 class RssiStatePool:
     """Stacked detector memory (module docstring); ``acquire`` a row, ``release`` it."""
 
+    pair_power_dbm: NDArray[np.float64]
+    pair_var_db2: NDArray[np.float64]
+    pair_started: NDArray[np.bool_]
+    ring: NDArray[np.float64]
+    ring_t: NDArray[np.float64]
+    y_ref: NDArray[np.float64]
+    params: NDArray[np.float64]
+
     def __init__(self, capacity: int = 16) -> None:
-        self.pair_x = np.zeros((capacity, PAIR_SLOTS))
-        self.pair_P = np.zeros((capacity, PAIR_SLOTS))
+        self.pair_power_dbm = np.zeros((capacity, PAIR_SLOTS))
+        self.pair_var_db2 = np.zeros((capacity, PAIR_SLOTS))
         self.pair_started = np.zeros((capacity, PAIR_SLOTS), dtype=bool)
         self.ring = np.zeros((capacity, RING, ROW))
         self.ring_t = np.full((capacity, RING), -np.inf)
@@ -56,8 +67,8 @@ class RssiStatePool:
         if not self._free:
             self._grow()
         row = self._free.pop()
-        self.pair_x[row] = 0.0
-        self.pair_P[row] = 0.0
+        self.pair_power_dbm[row] = 0.0
+        self.pair_var_db2[row] = 0.0
         self.pair_started[row] = False
         self.ring[row] = 0.0
         self.ring_t[row] = -np.inf
@@ -72,13 +83,13 @@ class RssiStatePool:
         old = self.capacity
         new = max(2 * old, 1)
 
-        def grown(a: NDArray[np.generic], fill: float | bool) -> NDArray[np.generic]:
-            out = np.full((new, *a.shape[1:]), fill, dtype=a.dtype)
+        def grown(a: _Array, fill: float | bool) -> _Array:
+            out: _Array = np.full((new, *a.shape[1:]), fill, dtype=a.dtype)
             out[:old] = a
             return out
 
-        self.pair_x = grown(self.pair_x, 0.0)
-        self.pair_P = grown(self.pair_P, 0.0)
+        self.pair_power_dbm = grown(self.pair_power_dbm, 0.0)
+        self.pair_var_db2 = grown(self.pair_var_db2, 0.0)
         self.pair_started = grown(self.pair_started, False)
         self.ring = grown(self.ring, 0.0)
         self.ring_t = grown(self.ring_t, -np.inf)
