@@ -44,7 +44,7 @@ from ridsafe.common.frames import GeodeticOrigin
 from ridsafe.common.frozen import quick_init
 from ridsafe.common.messages import Observation, Vec3
 from ridsafe.gcs.config import GcsConfig
-from ridsafe.gcs.pipeline_api import ObservedClaim, readonly
+from ridsafe.gcs.pipeline_api import FloatArray, ObservedClaim, readonly
 
 logger = logging.getLogger(__name__)
 
@@ -147,8 +147,9 @@ def claimed_velocity_enu(obs: Observation) -> Vec3 | None:
 
 @dataclass
 class _Group:
-    """One open broadcast: its claim and its receptions so far, one column per value
-    (the claims of a cycle are built from all due groups at once: ``claims_of``)."""
+    """One open broadcast: its claim and its receptions so far, each written as it comes
+    into one row of ``rows`` (``_T, _X, _Y, _Z, _RSSI, _SYSID``; the system id as a float,
+    exact), so closing the broadcast converts nothing per reception (``claims_of``)."""
 
     uas_id: str
     rid_timestamp_s: float
@@ -156,35 +157,43 @@ class _Group:
     claimed_geodetic: Vec3  # (lat deg, lon deg, alt m) of the first report
     claimed_p_enu_m: Vec3  # the same in ENU
     claimed_v_enu_m_s: Vec3 | None
-    rx_sysid: list[int] = field(default_factory=list)
-    rx_t_s: list[float] = field(default_factory=list)
-    rx_p_enu_m: list[Vec3] = field(default_factory=list)
-    rssi_dbm: list[float] = field(default_factory=list)
+    rows: FloatArray = field(default_factory=lambda: np.empty((_FIRST_ROWS, _COLUMNS)))
+    n: int = 0
+    first_t_s: float = math.inf
     heard_by: set[int] = field(default_factory=set)
 
-    def add(self, reception: ReportedReception) -> None:
-        self.heard_by.add(reception.rx_sysid)
-        self.rx_sysid.append(reception.rx_sysid)
-        self.rx_t_s.append(reception.t_s)
-        self.rx_p_enu_m.append(reception.rx_p_enu_m)
-        self.rssi_dbm.append(reception.rssi_dbm)
+    def add(self, r: ReportedReception) -> None:
+        if self.n == self.rows.shape[0]:
+            self.rows = np.concatenate((self.rows, np.empty_like(self.rows)))
+        east, north, up = r.rx_p_enu_m
+        self.rows[self.n] = (r.t_s, east, north, up, r.rssi_dbm, r.rx_sysid)
+        self.n += 1
+        self.heard_by.add(r.rx_sysid)
+        self.first_t_s = min(self.first_t_s, r.t_s)
+
+
+_T, _X, _Y, _Z, _RSSI, _SYSID = range(6)
+_COLUMNS = 6
+_FIRST_ROWS = 16
 
 
 def claims_of(groups: Sequence[_Group]) -> list[ObservedClaim]:
-    """The observed claims of ``groups``, receptions sorted by receiver id. The receptions of
-    all groups are stacked into one read-only array per value, sorted by (group, receiver)
-    and sliced: a handful of numpy calls per cycle instead of a handful per claim."""
+    """The observed claims of ``groups``, receptions sorted by receiver id: every group's
+    rows stacked, sorted by (group, receiver) and cut into read-only columns, then sliced
+    per claim (a handful of numpy calls per cycle, none per reception)."""
     if not groups:
         return []
-    sizes = [len(g.rx_sysid) for g in groups]
+    sizes = [g.n for g in groups]
     ends = list(itertools.accumulate(sizes))
-    sysid = np.fromiter(_chain(g.rx_sysid for g in groups), np.int64, ends[-1])
-    order = np.lexsort((sysid, np.repeat(np.arange(len(groups)), sizes)))
+    stacked = np.concatenate([g.rows[: g.n] for g in groups])
+    sysid = stacked[:, _SYSID].astype(np.int64)
+    group = np.repeat(np.arange(len(groups), dtype=np.int64), sizes)
+    order = np.argsort((group << 32) | sysid)  # (group, receiver): system ids are < 2^32
+    stacked = stacked[order]
     sysid = _frozen(sysid[order])
-    t_s = _frozen(np.fromiter(_chain(g.rx_t_s for g in groups), np.float64, ends[-1])[order])
-    rssi = _frozen(np.fromiter(_chain(g.rssi_dbm for g in groups), np.float64, ends[-1])[order])
-    rx_p = np.array(list(_chain(g.rx_p_enu_m for g in groups)), dtype=np.float64)
-    rx_p = _frozen(rx_p.reshape(ends[-1], 3)[order])
+    t_s = _frozen(np.ascontiguousarray(stacked[:, _T]))
+    rssi = _frozen(np.ascontiguousarray(stacked[:, _RSSI]))
+    rx_p = _frozen(np.ascontiguousarray(stacked[:, _X : _Z + 1]))
     claims = []
     for g, end, size in zip(groups, ends, sizes, strict=True):
         rows = slice(end - size, end)
@@ -199,12 +208,11 @@ def claims_of(groups: Sequence[_Group]) -> list[ObservedClaim]:
             rx_t_s=t_s[rows],
             rssi_dbm=rssi[rows],
         )
-        claim.__dict__["t_s"] = min(g.rx_t_s)  # its cached ``t_s`` (the same value)
+        claim.__dict__["t_s"] = g.first_t_s  # its cached ``t_s`` (the same value)
         claims.append(claim)
     return claims
 
 
-_chain = itertools.chain.from_iterable
 _A = TypeVar("_A", bound=np.ndarray)
 
 
