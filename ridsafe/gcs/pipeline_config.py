@@ -474,7 +474,20 @@ class PipelineConfig:
     #: Channel calibration on the cooperative aircraft (``calibration/``); off: the
     #: channel is ``rssi_sigma_db`` and free space, as configured.
     calibration: CalibrationConfig = field(default_factory=CalibrationConfig)
+    #: Work bound per cycle: at most this many claims run in one cycle (0: all), the rest
+    #: wait for the next cycles, oldest first; suspects' claims (alerted, new, or near an
+    #: alerting threshold: ``pipeline.SUSPICION``) never wait, none longer than
+    #: ``max_claim_wait_s``. Aircraft broadcasting in phase bring
+    #: all their claims to one cycle in four: 65 claims (64 aircraft) then run as 24, 24,
+    #: 17. Up to 23 aircraft and a spoofer nothing waits.
+    max_claims_per_cycle: int = 24
+    max_claim_wait_s: float = 0.5
 
     def __post_init__(self) -> None:
         check_positive("rssi_sigma_db", self.rssi_sigma_db)
         check_estimator(self.estimator)
+        if self.max_claims_per_cycle < 0:
+            raise FieldValueError(
+                "max_claims_per_cycle", f"expected >= 0, got {self.max_claims_per_cycle}"
+            )
+        check_positive("max_claim_wait_s", self.max_claim_wait_s)
