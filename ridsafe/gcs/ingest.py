@@ -28,10 +28,12 @@ Claimed velocity (ENU) from the broadcast's course ``c`` (clockwise from north) 
 from __future__ import annotations
 
 import enum
+import itertools
 import logging
 import math
 import operator
 from collections import OrderedDict, deque
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TypeVar
 
@@ -42,7 +44,7 @@ from ridsafe.common.frames import GeodeticOrigin
 from ridsafe.common.frozen import quick_init
 from ridsafe.common.messages import Observation, Vec3
 from ridsafe.gcs.config import GcsConfig
-from ridsafe.gcs.pipeline_api import ObservedClaim, readonly
+from ridsafe.gcs.pipeline_api import FloatArray, ObservedClaim, readonly
 
 logger = logging.getLogger(__name__)
 
@@ -145,29 +147,70 @@ def claimed_velocity_enu(obs: Observation) -> Vec3 | None:
 
 @dataclass
 class _Group:
+    """One open broadcast: its claim and its receptions so far, each written as it comes
+    into one row of ``rows`` (``_T, _X, _Y, _Z, _RSSI, _SYSID``; the system id as a float,
+    exact), so closing the broadcast converts nothing per reception (``claims_of``)."""
+
     uas_id: str
     rid_timestamp_s: float
     opened_s: float
     claimed_geodetic: Vec3  # (lat deg, lon deg, alt m) of the first report
     claimed_p_enu_m: Vec3  # the same in ENU
     claimed_v_enu_m_s: Vec3 | None
-    receptions: dict[int, ReportedReception] = field(default_factory=dict)
+    rows: FloatArray = field(default_factory=lambda: np.empty((_FIRST_ROWS, _COLUMNS)))
+    n: int = 0
+    first_t_s: float = math.inf
+    heard_by: set[int] = field(default_factory=set)
 
-    def claim(self) -> ObservedClaim:
-        rxs = [self.receptions[k] for k in sorted(self.receptions)]
-        velocity = None if self.claimed_v_enu_m_s is None else readonly(self.claimed_v_enu_m_s)
-        return ObservedClaim(
-            uas_id=self.uas_id,
-            rid_timestamp_s=self.rid_timestamp_s,
-            claimed_p_enu_m=readonly(self.claimed_p_enu_m),
+    def add(self, r: ReportedReception) -> None:
+        if self.n == self.rows.shape[0]:
+            self.rows = np.concatenate((self.rows, np.empty_like(self.rows)))
+        east, north, up = r.rx_p_enu_m
+        self.rows[self.n] = (r.t_s, east, north, up, r.rssi_dbm, r.rx_sysid)
+        self.n += 1
+        self.heard_by.add(r.rx_sysid)
+        self.first_t_s = min(self.first_t_s, r.t_s)
+
+
+_T, _X, _Y, _Z, _RSSI, _SYSID = range(6)
+_COLUMNS = 6
+_FIRST_ROWS = 16
+
+
+def claims_of(groups: Sequence[_Group]) -> list[ObservedClaim]:
+    """The observed claims of ``groups``, receptions sorted by receiver id: every group's
+    rows stacked, sorted by (group, receiver) and cut into read-only columns, then sliced
+    per claim (a handful of numpy calls per cycle, none per reception)."""
+    if not groups:
+        return []
+    sizes = [g.n for g in groups]
+    ends = list(itertools.accumulate(sizes))
+    stacked = np.concatenate([g.rows[: g.n] for g in groups])
+    sysid = stacked[:, _SYSID].astype(np.int64)
+    group = np.repeat(np.arange(len(groups), dtype=np.int64), sizes)
+    order = np.argsort((group << 32) | sysid)  # (group, receiver): system ids are < 2^32
+    stacked = stacked[order]
+    sysid = _frozen(sysid[order])
+    t_s = _frozen(np.ascontiguousarray(stacked[:, _T]))
+    rssi = _frozen(np.ascontiguousarray(stacked[:, _RSSI]))
+    rx_p = _frozen(np.ascontiguousarray(stacked[:, _X : _Z + 1]))
+    claims = []
+    for g, end, size in zip(groups, ends, sizes, strict=True):
+        rows = slice(end - size, end)
+        velocity = None if g.claimed_v_enu_m_s is None else readonly(g.claimed_v_enu_m_s)
+        claim = ObservedClaim(
+            uas_id=g.uas_id,
+            rid_timestamp_s=g.rid_timestamp_s,
+            claimed_p_enu_m=readonly(g.claimed_p_enu_m),
             claimed_v_enu_m_s=velocity,
-            rx_sysid=_frozen(np.array([r.rx_sysid for r in rxs], dtype=np.int64)),
-            rx_p_enu_m=_frozen(
-                np.array([r.rx_p_enu_m for r in rxs], dtype=np.float64).reshape(len(rxs), 3)
-            ),
-            rx_t_s=_frozen(np.array([r.t_s for r in rxs], dtype=np.float64)),
-            rssi_dbm=_frozen(np.array([r.rssi_dbm for r in rxs], dtype=np.float64)),
+            rx_sysid=sysid[rows],
+            rx_p_enu_m=rx_p[rows],
+            rx_t_s=t_s[rows],
+            rssi_dbm=rssi[rows],
         )
+        claim.__dict__["t_s"] = g.first_t_s  # its cached ``t_s`` (the same value)
+        claims.append(claim)
+    return claims
 
 
 _A = TypeVar("_A", bound=np.ndarray)
@@ -264,15 +307,15 @@ class Ingest:
             velocity = claimed_velocity_enu(obs)
             group = _Group(obs.uas_id, obs.rid_timestamp_s, now_s, claimed_geo, claimed_p, velocity)
             self._open[key] = group
-        elif rx_sysid in group.receptions:
+        elif rx_sysid in group.heard_by:
             return RejectReason.DUPLICATE
-        group.receptions[rx_sysid] = ReportedReception(rx_sysid, obs.t_s, rx_p, obs.rssi_dbm)
+        group.add(ReportedReception(rx_sysid, obs.t_s, rx_p, obs.rssi_dbm))
         return None
 
     def close_due(self, now_s: float) -> list[ObservedClaim]:
         window = self.config.group_window_s
         due = [k for k, g in self._open.items() if now_s - g.opened_s >= window - _TIME_EPS_S]
-        closed = [self._open.pop(k).claim() for k in due]
+        closed = claims_of([self._open.pop(k) for k in due])
         closed.sort(key=lambda t: (t.t_s, t.uas_id))
         for key in due:
             self._closed[key] = now_s
@@ -297,7 +340,12 @@ class Ingest:
 
     def _forget_closed_keys(self, now_s: float) -> None:
         horizon = now_s - self.config.history_window_s
-        for key in [k for k, t in self._closed.items() if t < horizon]:
+        stale = []
+        for key, closed_s in self._closed.items():  # in closing order, so oldest first
+            if closed_s >= horizon:
+                break
+            stale.append(key)
+        for key in stale:
             del self._closed[key]
 
 

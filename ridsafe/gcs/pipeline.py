@@ -10,8 +10,12 @@ track's life.
 ``pipeline_api.py``) is called every GCS cycle (0.25 s) with the observed claims that closed
 since the last cycle, and answers what it decided. Each cycle:
 
+0. at most ``max_claims_per_cycle`` claims run; the claims of suspects (alerted, new, or
+   scoring above ``SUSPICION`` of a threshold) and those that waited ``max_claim_wait_s``
+   always run; the rest wait for the next cycles, oldest first;
 1. every claim (in time order) goes through its claimed transmitter's detectors
-   (a ``TransmitterMonitor`` per uas_id heard, benign ones too) -> ``DetectorResult``s;
+   (a ``TransmitterMonitor`` per uas_id heard, benign ones too; all of a cycle's claims in
+   one batch, ``detection.monitor.observe_batch``) -> ``DetectorResult``s;
    it is kept ``max(backfill_s, window_s)`` seconds for track initiation, and updates the
    uas_id's track if there is one;
 2. alerts: the first decision of an alerting detector (``detection.alerting``) raises the
@@ -45,7 +49,7 @@ import numpy as np
 
 from ridsafe.common.messages import AlertState, RidsafeDetector
 from ridsafe.common.pathloss import received_power_dbm
-from ridsafe.gcs.detection.monitor import TransmitterMonitor
+from ridsafe.gcs.detection.monitor import TransmitterMonitor, observe_batch
 from ridsafe.gcs.localisation import mixture_kernels
 from ridsafe.gcs.pipeline_api import (
     AlertChange,
@@ -67,6 +71,10 @@ __all__ = ["EstimationPipeline"]
 
 #: A transmitter's detector memory is dropped after this much silence (seconds).
 FORGET_AFTER_S = 60.0
+_EPS_S = 1e-9
+#: With ``max_claims_per_cycle``, a transmitter whose latest claim scored above this fraction
+#: of an alerting detector's threshold never waits (nor a new or alerted one).
+SUSPICION = 0.5
 #: How many cycles' compute times are kept for ``compute_s``.
 COMPUTE_HISTORY = 100_000
 
@@ -85,6 +93,7 @@ class _Heard:
     recent: deque[ObservedClaim]
     last_heard_s: float
     tried_init_at_s: float = -float("inf")  # newest claim a track start has seen
+    suspicious: bool = True  # until its first tested claim says otherwise
 
 
 def warm_up() -> None:
@@ -124,6 +133,10 @@ def warm_up() -> None:
     mixture_kernels.pair_mahalanobis2(x[:, :3].copy(), P[:, :3, :3].copy())
 
 
+def _claim_time(item: tuple[float, ObservedClaim]) -> float:
+    return item[1].t_s
+
+
 def _finite(claim: ObservedClaim) -> bool:
     return bool(
         all_finite(
@@ -153,6 +166,7 @@ class EstimationPipeline:
         self._next_track_id = 1
         self._forced_done = False
         self._publisher = RegionPublisher(self.config.region.publish)
+        self._waiting: list[tuple[float, ObservedClaim]] = []  # (arrived s, claim)
         self.compute_s: deque[float] = deque(maxlen=COMPUTE_HISTORY)
 
     # --- the GcsPipeline protocol ---------------------------------------------------------
@@ -163,12 +177,10 @@ class EstimationPipeline:
             track.fixed_this_cycle = False
         results: list[DetectorResult] = []
         changes: list[AlertChange] = []
-        for claim in sorted(claims, key=lambda c: c.t_s):
-            if not _finite(claim):
-                logger.warning("claim of %s with non-finite values ignored", claim.uas_id)
-                continue
-            claim_results = self._detect(claim)
+        usable = [c for c in self._admit(now_s, claims) if self._usable(c)]
+        for claim, claim_results in zip(usable, self._detect(usable), strict=True):
             results.extend(claim_results)
+            self._note_suspicion(claim.uas_id, claim_results)
             changes.extend(self._maybe_raise(claim.uas_id, claim.t_s, claim_results))
             live = self._tracks.get(claim.uas_id)
             if live is not None:
@@ -189,20 +201,73 @@ class EstimationPipeline:
         )
         return out
 
+    # --- which claims run now ---------------------------------------------------------------
+
+    def _admit(self, now_s: float, claims: Sequence[ObservedClaim]) -> list[ObservedClaim]:
+        """This cycle's claims in time order: the new ones and those that waited, at most
+        ``max_claims_per_cycle`` besides the suspects' and those waiting ``max_claim_wait_s``
+        already; the rest wait (oldest first, so one transmitter's claims keep their order)."""
+        waiting = sorted([*self._waiting, *((now_s, c) for c in claims)], key=_claim_time)
+        limit = self.config.max_claims_per_cycle
+        if limit <= 0 or len(waiting) <= limit:
+            self._waiting = []
+            return [claim for _, claim in waiting]
+        due_s = now_s - self.config.max_claim_wait_s
+        must: list[tuple[float, ObservedClaim]] = []
+        may: list[tuple[float, ObservedClaim]] = []
+        for item in waiting:
+            arrived_s, claim = item
+            urgent = arrived_s <= due_s + _EPS_S or self._suspect(claim.uas_id)
+            (must if urgent else may).append(item)
+        room = max(0, limit - len(must))
+        self._waiting = may[room:]
+        return [claim for _, claim in sorted([*must, *may[:room]], key=_claim_time)]
+
+    def _suspect(self, uas_id: str) -> bool:
+        """Alerted, never tested, or its latest test at ``SUSPICION`` of a threshold."""
+        heard = self._heard.get(uas_id)
+        return uas_id in self._alerts or heard is None or heard.suspicious
+
+    def _note_suspicion(self, uas_id: str, results: Sequence[DetectorResult]) -> None:
+        if not results or self.config.max_claims_per_cycle <= 0:
+            return
+        alerting = self.config.detection.alerting
+        self._heard[uas_id].suspicious = any(
+            r.statistic > SUSPICION * r.threshold for r in results if r.detector in alerting
+        )
+
+    @property
+    def waiting(self) -> tuple[ObservedClaim, ...]:
+        """Claims left for the next cycles (``max_claims_per_cycle``), oldest first."""
+        return tuple(claim for _, claim in self._waiting)
+
     # --- detection and alerts -------------------------------------------------------------
 
-    def _detect(self, claim: ObservedClaim) -> tuple[DetectorResult, ...]:
+    @staticmethod
+    def _usable(claim: ObservedClaim) -> bool:
+        if _finite(claim):
+            return True
+        logger.warning("claim of %s with non-finite values ignored", claim.uas_id)
+        return False
+
+    def _detect(self, claims: Sequence[ObservedClaim]) -> list[tuple[DetectorResult, ...]]:
+        """Remember each claim for its transmitter and run its detectors: every claim of the
+        cycle through one batch (``detection.monitor.observe_batch``); detection never
+        depends on the tracks, so it may run before the cycle's track updates."""
         cfg = self.config
-        heard = self._heard.get(claim.uas_id)
-        if heard is None:
-            monitor = TransmitterMonitor(claim.uas_id, cfg)
-            heard = self._heard[claim.uas_id] = _Heard(monitor, deque(), claim.t_s)
-        heard.last_heard_s = max(heard.last_heard_s, claim.t_s)
         keep_s = max(cfg.tracks.backfill_s, cfg.detection.window_s)
-        heard.recent.append(claim)
-        while heard.recent and heard.recent[0].t_s < claim.t_s - keep_s:
-            heard.recent.popleft()
-        return heard.monitor.observe(claim)
+        monitors = []
+        for claim in claims:
+            heard = self._heard.get(claim.uas_id)
+            if heard is None:
+                monitor = TransmitterMonitor(claim.uas_id, cfg)
+                heard = self._heard[claim.uas_id] = _Heard(monitor, deque(), claim.t_s)
+            heard.last_heard_s = max(heard.last_heard_s, claim.t_s)
+            heard.recent.append(claim)
+            while heard.recent and heard.recent[0].t_s < claim.t_s - keep_s:
+                heard.recent.popleft()
+            monitors.append(heard.monitor)
+        return observe_batch(monitors, claims)
 
     def _detectors_may_alert(self) -> bool:
         forced = self.config.forced_alert

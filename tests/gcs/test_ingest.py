@@ -272,3 +272,42 @@ def test_config_rejects_impossible_values_naming_the_field(
     with pytest.raises(FieldValueError) as info:
         GcsConfig(**changes)  # type: ignore[arg-type]
     assert info.value.field == field
+
+
+def test_claims_of_one_cycle_are_built_together_each_sorted_by_receiver() -> None:
+    """Several broadcasts closing in one cycle, receptions arriving out of receiver order:
+    each claim holds exactly its own receptions, sorted by receiver id, read-only."""
+    ingest = Ingest(GcsConfig(), ORIGIN)
+    heard = {  # uas_id -> receptions (rx sysid, t, rx position, rssi) in arrival order
+        SPOOF: [(9, 1.02, (5.0, 6.0, 7.0), -60.0), (2, 1.01, (1.0, 2.0, 3.0), -61.0)],
+        BENIGN: [(4, 1.03, (8.0, 9.0, 10.0), -62.0), (7, 1.00, (11.0, 12.0, 13.0), -63.0)],
+        "RSAF800000002": [(3, 1.04, (14.0, 15.0, 16.0), -64.0)],
+    }
+    for uas_id, receptions in heard.items():
+        for sysid, t, rx, rssi in receptions:
+            obs = observation(t_s=t, rx_enu_m=rx, rssi_dbm=rssi, uas_id=uas_id)
+            assert ingest.add(1.05, sysid, obs) is None
+    claims = {c.uas_id: c for c in ingest.close_due(1.4)}
+    assert set(claims) == set(heard)
+    for uas_id, receptions in heard.items():
+        claim, expected = claims[uas_id], sorted(receptions)
+        assert claim.rx_sysid.tolist() == [r[0] for r in expected]
+        assert claim.rx_t_s.tolist() == [r[1] for r in expected]
+        assert claim.rssi_dbm.tolist() == [r[3] for r in expected]
+        np.testing.assert_allclose(claim.rx_p_enu_m, [r[2] for r in expected], atol=1e-6)
+        assert claim.t_s == min(r[1] for r in receptions) == float(claim.rx_t_s.min())
+        for array in (claim.rx_sysid, claim.rx_t_s, claim.rssi_dbm, claim.rx_p_enu_m):
+            assert not array.flags.writeable
+
+
+def test_closed_keys_are_forgotten_oldest_first_after_the_history_window() -> None:
+    cfg = GcsConfig()
+    ingest = Ingest(cfg, ORIGIN)
+    for k in range(3):
+        obs = observation(t_s=1.0 + k, rid_timestamp_s=100.0 + k)
+        assert ingest.add(1.0 + k, 1, obs) is None
+        ingest.close_due(1.5 + k)
+    late = observation(t_s=1.2, rid_timestamp_s=100.0)
+    assert ingest.add(3.6, 2, late) is RejectReason.LATE  # its broadcast closed already
+    ingest.close_due(1.5 + cfg.history_window_s + 1.1)  # the first two keys expire
+    assert len(ingest._closed) == 1

@@ -39,6 +39,8 @@ window costs one array sum.
 from __future__ import annotations
 
 import math
+import weakref
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,7 +49,8 @@ from scipy.special import chdtrc, ndtri
 
 from ridsafe.common.messages import RidsafeDetector
 from ridsafe.common.pathloss import DB_PER_LN
-from ridsafe.gcs.detection.rssi_consistency_kernels import observe_kernel, observe_params
+from ridsafe.gcs.detection.rssi_consistency_kernels import observe_batch_kernel, observe_params
+from ridsafe.gcs.detection.rssi_state import RING, RssiStatePool
 from ridsafe.gcs.pipeline_api import DetectorResult, ObservedClaim
 from ridsafe.gcs.pipeline_config import DetectionConfig, PipelineConfig
 
@@ -197,7 +200,9 @@ class PairNis:
 class RssiConsistencyDetectors:
     """The five detectors above for one claimed transmitter (benign or not), run together by
     one compiled kernel (``rssi_consistency_kernels.observe_kernel``) on every claim heard
-    by at least ``min_receivers``.
+    by at least ``min_receivers``. The memory lives in a row of a ``RssiStatePool`` (by
+    default the process's ``SHARED_POOL``), so ``observe_batch`` runs the claims of many
+    transmitters through one call.
 
     The window keeps at most ``RING`` claims (64: a transmitter broadcasting faster than
     6 Hz sees its window shortened to the latest 64).
@@ -212,19 +217,18 @@ class RssiConsistencyDetectors:
         RidsafeDetector.MLAT,
     )
 
-    RING = 64
+    RING = RING
 
-    def __init__(self, uas_id: str, cfg: DetectionConfig, sigma_db: float) -> None:
+    def __init__(
+        self, uas_id: str, cfg: DetectionConfig, sigma_db: float, pool: RssiStatePool | None = None
+    ) -> None:
         self.uas_id = uas_id
         self.cfg = cfg
         self.sigma_db = sigma_db
-        self.pairs = PairNis(cfg)
         self.cusum = 0.0
         self._y_ref: float | None = None
-        self._ring = np.zeros((self.RING, ROW))
-        self._t = np.full(self.RING, -np.inf)
         self._thr = -math.log10(cfg.p_false_alarm)
-        self._params = observe_params(
+        params = observe_params(
             cfg.window_s,
             sigma_db**2,
             (DB_PER_LN * cfg.position_sigma_m) ** 2,
@@ -233,6 +237,9 @@ class RssiConsistencyDetectors:
             cfg.nis_r_db2,
             cfg.nis_p0_db2,
         )
+        self.pool = SHARED_POOL if pool is None else pool
+        self.row = self.pool.acquire(params)
+        weakref.finalize(self, self.pool.release, self.row)
         self.last_offset_enu_m = np.zeros(3)  # the MLAT window's delta^ (claimed - estimated)
 
     @classmethod
@@ -242,40 +249,95 @@ class RssiConsistencyDetectors:
 
     def observe(self, claim: ObservedClaim) -> tuple[DetectorResult, ...]:
         """Run every detector on one claim (needs ``min_receivers``)."""
-        cfg = self.cfg
-        if claim.n_receivers < cfg.min_receivers:
-            return ()
+        return self.observe_batch([self], [claim])[0]
+
+    @staticmethod
+    def observe_batch(
+        banks: Sequence[RssiConsistencyDetectors], claims: Sequence[ObservedClaim]
+    ) -> list[tuple[DetectorResult, ...]]:
+        """``banks[j].observe(claims[j])`` for every j in order (a bank may come more than
+        once), in one kernel call when the banks share a pool: the same arithmetic."""
+        out: list[tuple[DetectorResult, ...]] = [()] * len(claims)
+        todo = [j for j, c in enumerate(claims) if c.n_receivers >= banks[j].cfg.min_receivers]
+        if not todo:
+            return out
+        pool = banks[todo[0]].pool
+        if any(banks[j].pool is not pool for j in todo):  # banks of separate pools
+            for j in todo:
+                out[j] = banks[j].observe(claims[j])
+            return out
+        for j in todo:
+            banks[j]._start_reference(claims[j])
+        stats, dofs, deltas = _run_kernel(
+            pool, [banks[j].row for j in todo], [claims[j] for j in todo]
+        )
+        p = chdtrc(dofs[:, _P_DOF], stats[:, _P_STAT])
+        # ``probit`` of the single-claim offset test (CUSUM's input), elementwise at once
+        z = np.where(dofs[:, 2] > 0, -ndtri(np.maximum(p[:, 3], 1e-300)), 0.0)
+        for j, nis, dof, delta, p_j, z_j in zip(
+            todo, stats[:, 0].tolist(), dofs.tolist(), deltas, p.tolist(), z.tolist(), strict=True
+        ):
+            out[j] = banks[j]._results(nis, dof, delta, p_j, z_j)
+        return out
+
+    def _start_reference(self, claim: ObservedClaim) -> None:
+        """The implied-power reference: the median over the first claim tested."""
         if self._y_ref is None:
             ip = implied_powers(
-                claim.claimed_p_enu_m, claim.rx_p_enu_m, claim.rssi_dbm, self.sigma_db, cfg
+                claim.claimed_p_enu_m, claim.rx_p_enu_m, claim.rssi_dbm, self.sigma_db, self.cfg
             )
             self._y_ref = float(np.median(ip.y))
-        pairs = self.pairs
-        out = observe_kernel(
-            np.ascontiguousarray(claim.claimed_p_enu_m),
-            np.ascontiguousarray(claim.rx_p_enu_m),
-            np.ascontiguousarray(claim.rssi_dbm),
-            np.ascontiguousarray(claim.rx_sysid, dtype=np.int64),
-            pairs.x,
-            pairs.P,
-            pairs.started,
-            self._ring,
-            self._t,
-            claim.t_s,
-            self._y_ref,
-            self._params,
-        )
-        nis, spread, dof, wspread, wdof, one, rank_one, win, rank_win, delta = out
+            self.pool.y_ref[self.row] = self._y_ref
+
+    def _results(
+        self, nis: float, dof: list[int], delta: FloatArray, p: list[float], z: float
+    ) -> tuple[DetectorResult, ...]:
+        """One claim's results from the kernel's NIS, dofs, delta^, the p-values (spread,
+        window spread, window offset, single offset) and the single offset's probit."""
+        cfg, uas_id, thr = self.cfg, self.uas_id, self._thr
+        dof_one, wdof, _rank_one, rank_win = dof
         self.last_offset_enu_m = delta
-        p = chdtrc(np.array([dof, wdof, rank_win, rank_one]), np.array([spread, wspread, win, one]))
-        self.cusum = max(0.0, self.cusum + _probit(p[3], rank_one) - cfg.cusum_drift)
+        self.cusum = cusum = max(0.0, self.cusum + z - cfg.cusum_drift)
+        spread = _surprisal(p[0], dof_one)
+        window = _surprisal(p[1], wdof)
+        mlat = _surprisal(p[2], rank_win)
+        nis_thr, cusum_thr = cfg.nis_threshold, cfg.cusum_threshold
         return (
-            self._result(RidsafeDetector.NIS, nis, cfg.nis_threshold),
-            self._result(RidsafeDetector.POWER_SPREAD, _surprisal(p[0], dof), self._thr),
-            self._result(RidsafeDetector.NIS_WINDOW, _surprisal(p[1], wdof), self._thr),
-            self._result(RidsafeDetector.CUSUM, self.cusum, cfg.cusum_threshold),
-            self._result(RidsafeDetector.MLAT, _surprisal(p[2], rank_win), self._thr),
+            DetectorResult(uas_id, RidsafeDetector.NIS, nis, nis_thr, nis > nis_thr),
+            DetectorResult(uas_id, RidsafeDetector.POWER_SPREAD, spread, thr, spread > thr),
+            DetectorResult(uas_id, RidsafeDetector.NIS_WINDOW, window, thr, window > thr),
+            DetectorResult(uas_id, RidsafeDetector.CUSUM, cusum, cusum_thr, cusum > cusum_thr),
+            DetectorResult(uas_id, RidsafeDetector.MLAT, mlat, thr, mlat > thr),
         )
 
-    def _result(self, det: RidsafeDetector, stat: float, thr: float) -> DetectorResult:
-        return DetectorResult(self.uas_id, det, stat, thr, stat > thr)
+
+#: The rows of every bank made without a pool of its own.
+SHARED_POOL = RssiStatePool()
+#: Columns of the kernel's (dofs, stats) behind the p-values (spread, window spread, window
+#: offset, single-claim offset): one chdtrc call for a whole cycle.
+_P_DOF = [0, 1, 3, 2]
+_P_STAT = [1, 2, 4, 3]
+
+
+def _run_kernel(
+    pool: RssiStatePool, rows: list[int], claims: list[ObservedClaim]
+) -> tuple[FloatArray, NDArray[np.int64], FloatArray]:
+    """``observe_batch_kernel`` on ``claims``, claim j on pool row ``rows[j]``."""
+    bounds = np.zeros(len(claims) + 1, dtype=np.int64)
+    np.cumsum([c.rx_sysid.shape[0] for c in claims], out=bounds[1:])
+    return observe_batch_kernel(
+        np.stack([c.claimed_p_enu_m for c in claims]),
+        np.concatenate([c.rx_p_enu_m for c in claims]),
+        np.concatenate([c.rssi_dbm for c in claims]),
+        np.concatenate([c.rx_sysid for c in claims]).astype(np.int64, copy=False),
+        bounds,
+        np.array([c.t_s for c in claims]),
+        np.array(rows, dtype=np.int64),
+        pool.pair_power_dbm,
+        pool.pair_var_db2,
+        pool.pair_started,
+        pool.ring,
+        pool.ring_t,
+        pool.y_ref,
+        pool.params,
+    )

@@ -19,7 +19,7 @@ from ridsafe.gcs.jit import jit
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["ROW", "observe_kernel", "observe_params", "score_from_sums"]
+__all__ = ["ROW", "observe_batch_kernel", "observe_kernel", "observe_params", "score_from_sums"]
 
 ROW = 19  # n, sw, swy, swyy, swg (3), swgy (3), swgg (9)
 RANK_TOL = 1e-9
@@ -66,17 +66,17 @@ def _tx_row(
     y: FloatArray,
     d: FloatArray,
 ) -> FloatArray:
-    """This transmission's row of sums; fills ``y`` (implied powers) and ``d`` (distances)."""
+    """This transmission's row of sums; fills ``y`` (implied powers) and ``d`` (distances).
+    The offset gradient is kept in scalars (no array per reception); the operations and their
+    order are those of the numpy reference."""
     row = np.zeros(ROW)
     k = rx.shape[0]
     row[0] = k
     for i in range(k):
-        g = np.empty(3)
-        d2 = 0.0
-        for a in range(3):
-            g[a] = claimed[a] - rx[i, a]
-            d2 += g[a] * g[a]
-        d2 = max(d2, 1.0)
+        g0 = claimed[0] - rx[i, 0]
+        g1 = claimed[1] - rx[i, 1]
+        g2 = claimed[2] - rx[i, 2]
+        d2 = max(g0 * g0 + g1 * g1 + g2 * g2, 1.0)
         d[i] = math.sqrt(d2)
         y[i] = rssi[i] + 10.0 * math.log10(d2) + loss
         w = 1.0 / (s2 + pos2 / d2)
@@ -84,13 +84,26 @@ def _tx_row(
         row[1] += w
         row[2] += w * yc
         row[3] += w * yc * yc
-        for a in range(3):
-            g[a] *= DB_PER_LN / d2
-            row[4 + a] += w * g[a]
-            row[7 + a] += w * g[a] * yc
-        for a in range(3):
-            for c in range(3):
-                row[10 + 3 * a + c] += w * g[a] * g[c]
+        scale = DB_PER_LN / d2
+        g0 *= scale
+        g1 *= scale
+        g2 *= scale
+        wg0, wg1, wg2 = w * g0, w * g1, w * g2
+        row[4] += wg0
+        row[5] += wg1
+        row[6] += wg2
+        row[7] += wg0 * yc
+        row[8] += wg1 * yc
+        row[9] += wg2 * yc
+        row[10] += wg0 * g0
+        row[11] += wg0 * g1
+        row[12] += wg0 * g2
+        row[13] += wg1 * g0
+        row[14] += wg1 * g1
+        row[15] += wg1 * g2
+        row[16] += wg2 * g0
+        row[17] += wg2 * g1
+        row[18] += wg2 * g2
     return row
 
 
@@ -162,3 +175,62 @@ def observe_kernel(
     spread, dof, one, rank_one, _ = score_from_sums(row)
     wspread, wdof, win, rank_win, delta = score_from_sums(window)
     return nis_max, spread, dof, wspread, wdof, one, rank_one, win, rank_win, delta
+
+
+@jit
+def observe_batch_kernel(
+    claimed: FloatArray,
+    rx: FloatArray,
+    rssi: FloatArray,
+    rx_sysid: NDArray[np.int64],
+    bounds: NDArray[np.int64],
+    t_s: FloatArray,
+    rows: NDArray[np.int64],
+    pair_x: FloatArray,
+    pair_P: FloatArray,
+    pair_started: NDArray[np.bool_],
+    ring: FloatArray,
+    ring_t: FloatArray,
+    y_ref: FloatArray,
+    params: FloatArray,
+) -> tuple[FloatArray, NDArray[np.int64], FloatArray]:
+    """``observe_kernel`` on B claims in order, each on its transmitter's row of stacked
+    state: claim j is ``claimed[j]`` (B, 3) heard by receptions ``bounds[j]:bounds[j + 1]``
+    of ``rx`` (R, 3), ``rssi``, ``rx_sysid``, at ``t_s[j]``; its transmitter's state is row
+    ``rows[j]`` of ``pair_x``, ``pair_P``, ``pair_started`` (M, 256), ``ring`` (M, RING, ROW),
+    ``ring_t`` (M, RING), ``y_ref`` (M,), ``params`` (M, 7). The same arithmetic as one call
+    per claim. Returns (stats (B, 5): max pair NIS, spread T, window spread T, single-tx
+    offset T, window offset T; dofs (B, 4): spread dof, window dof, rank, window rank;
+    window delta^ (B, 3))."""
+    b = claimed.shape[0]
+    stats = np.zeros((b, 5))
+    dofs = np.zeros((b, 4), dtype=np.int64)
+    deltas = np.zeros((b, 3))
+    for j in range(b):
+        r = rows[j]
+        lo, hi = bounds[j], bounds[j + 1]
+        nis, spread, dof, wspread, wdof, one, rank_one, win, rank_win, delta = observe_kernel(
+            claimed[j],
+            rx[lo:hi],
+            rssi[lo:hi],
+            rx_sysid[lo:hi],
+            pair_x[r],
+            pair_P[r],
+            pair_started[r],
+            ring[r],
+            ring_t[r],
+            t_s[j],
+            y_ref[r],
+            params[r],
+        )
+        stats[j, 0] = nis
+        stats[j, 1] = spread
+        stats[j, 2] = wspread
+        stats[j, 3] = one
+        stats[j, 4] = win
+        dofs[j, 0] = dof
+        dofs[j, 1] = wdof
+        dofs[j, 2] = rank_one
+        dofs[j, 3] = rank_win
+        deltas[j] = delta
+    return stats, dofs, deltas

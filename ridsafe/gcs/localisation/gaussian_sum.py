@@ -50,6 +50,7 @@ from ridsafe.gcs.localisation.rssi_update import (
     iplf_iterate,
     iplf_update,
     linearise,
+    nearest_receivers,
 )
 from ridsafe.gcs.pipeline_api import ObservedClaim
 from ridsafe.gcs.pipeline_config import PipelineConfig
@@ -187,7 +188,7 @@ class GaussianSumLocaliser:
         if self.power_jitter is not None:
             fused, mixture = self._loosen_power(fused, mixture, meas)
         keep = gate_receptions(mixture, 6, meas, f.reception_gate_sigma, _MAX_GATED_FRACTION)
-        meas = meas.subset(keep)
+        meas = nearest_receivers(meas.subset(keep), mixture.x[0, :3], f.max_receivers)
         if self._split(fused, meas.rx):
             fused = imm.merge(self.state, self.model)
         out = self._iplf(fused, meas)

@@ -97,6 +97,18 @@ class RssiMeasurement:
         )
 
 
+def nearest_receivers(meas: RssiMeasurement, p_enu_m: FloatArray, limit: int) -> RssiMeasurement:
+    """``meas`` with only its ``limit`` receptions nearest ``p_enu_m`` (3,), in their order
+    (all of it when ``limit`` is 0 or not below their number)."""
+    k = meas.rx.shape[0]
+    if limit <= 0 or k <= limit:
+        return meas
+    d2 = np.sum((meas.rx - p_enu_m) ** 2, axis=1)
+    keep = np.zeros(k, dtype=bool)
+    keep[np.argpartition(d2, limit - 1)[:limit]] = True
+    return meas.subset(keep)
+
+
 def observed(i_pt: int) -> NDArray[np.int64]:
     """Indices of the observed block (p, Pt) in a state whose power is at ``i_pt``."""
     return np.array([0, 1, 2, i_pt])

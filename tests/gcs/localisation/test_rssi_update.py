@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from ridsafe.common.errors import FieldValueError
 from ridsafe.common.pathloss import received_power_dbm
 from ridsafe.gcs.localisation.multilateration import rssi_jacobian
 from ridsafe.gcs.localisation.rssi_update import (
@@ -17,7 +18,9 @@ from ridsafe.gcs.localisation.rssi_update import (
     iplf_update,
     iplf_update_reference,
     linearise,
+    nearest_receivers,
 )
+from ridsafe.gcs.pipeline_config import RssiFilterConfig
 from ridsafe.gcs.tracking.imm import Gaussian
 
 
@@ -130,3 +133,17 @@ def test_gate_drops_an_outlier_but_not_a_quarter_of_the_receptions() -> None:
     many = meas.rssi.copy()
     many[:5] += 30.0
     assert gate_receptions(prior, 6, RssiMeasurement(rx, many, 1.0, 1.0), 5.0, 0.25).all()
+
+
+def test_nearest_receivers_keeps_the_closest_in_their_order() -> None:
+    rx = np.array([[300.0, 0, 50], [10.0, 0, 50], [200.0, 0, 50], [20.0, 0, 50], [90.0, 0, 50]])
+    meas = RssiMeasurement(rx, np.arange(5.0), 1.0, 1.0)
+    near = nearest_receivers(meas, np.array([0.0, 0.0, 50.0]), 3)
+    assert near.rx[:, 0].tolist() == [10.0, 20.0, 90.0] and near.rssi.tolist() == [1.0, 3.0, 4.0]
+    assert nearest_receivers(meas, np.zeros(3), 0) is meas  # 0: all
+    assert nearest_receivers(meas, np.zeros(3), 5) is meas  # not fewer than there are
+
+
+def test_max_receivers_is_checked() -> None:
+    with pytest.raises(FieldValueError, match="max_receivers"):
+        RssiFilterConfig(max_receivers=-1)

@@ -1,0 +1,83 @@
+"""The work bound per cycle (``max_claims_per_cycle``): aligned broadcasts spread over the
+next cycles oldest first, alerted transmitters never wait and none waits too long, every
+claim runs exactly once, and under the bound nothing changes."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from ridsafe.common.errors import FieldValueError
+from ridsafe.gcs.pipeline import EstimationPipeline
+from ridsafe.gcs.pipeline_config import ForcedAlertConfig, PipelineConfig
+from ridsafe.gcs.synthetic.traffic import CYCLE_S, SPOOFER_ID, Scene, make_traffic
+
+N_DETECTORS = 5
+SCENE = Scene(seed=2, n_receivers=11, duration_s=12.0, aligned_phases=True)
+
+
+def _claims_run(cfg: PipelineConfig) -> list[list[str]]:
+    """Per cycle: the uas_id of each claim the detectors saw (one per five results)."""
+    traffic = make_traffic(SCENE)
+    pipeline = EstimationPipeline(cfg)
+    runs = []
+    for k in range(1, round(SCENE.duration_s / CYCLE_S) + 1):
+        now = round(k * CYCLE_S, 6)
+        out = pipeline.step(now, traffic.cycles.get(now, []))
+        runs.append([r.uas_id for r in out.detector_results][::N_DETECTORS])
+    return runs
+
+
+def test_at_most_the_bound_per_cycle_and_every_claim_once() -> None:
+    unbounded = _claims_run(PipelineConfig(max_claims_per_cycle=0))
+    bounded = _claims_run(PipelineConfig(max_claims_per_cycle=5))
+    assert max(map(len, unbounded)) == SCENE.n_receivers + 1  # all in one cycle
+    first_heard = next(k for k, run in enumerate(bounded) if run)
+    assert len(bounded[first_heard]) == SCENE.n_receivers + 1  # new transmitters never wait
+    assert max(map(len, bounded[first_heard + 1 :])) <= 5
+    spoofer_runs = [k for k, run in enumerate(bounded) if SPOOFER_ID in run]
+    assert all(k % 4 == first_heard % 4 for k in spoofer_runs)  # a suspect: never waits
+    flat_unbounded = [u for run in unbounded for u in run]
+    flat_bounded = [u for run in bounded for u in run]
+    # once each (the last second's may still wait at the end), and per transmitter in order
+    assert set(flat_bounded) == set(flat_unbounded)
+    assert 0 <= len(flat_unbounded) - len(flat_bounded) <= SCENE.n_receivers + 1 - 5
+
+
+def test_under_the_bound_nothing_changes() -> None:
+    traffic = make_traffic(SCENE)
+    outputs = []
+    for limit in (0, SCENE.n_receivers + 1):
+        pipeline = EstimationPipeline(PipelineConfig(max_claims_per_cycle=limit))
+        outputs.append(
+            [
+                pipeline.step(round(k * CYCLE_S, 6), traffic.cycles.get(round(k * CYCLE_S, 6), []))
+                for k in range(1, 40)
+            ]
+        )
+    assert [o.detector_results for o in outputs[0]] == [o.detector_results for o in outputs[1]]
+
+
+def test_alerted_and_overdue_claims_never_wait() -> None:
+    forced = ForcedAlertConfig(enabled=True, uas_id=SPOOFER_ID, time_s=0.0)
+    cfg = PipelineConfig(max_claims_per_cycle=2, forced_alert=forced)
+    traffic = make_traffic(SCENE)
+    pipeline = EstimationPipeline(cfg)
+    pipeline.step(0.0, [])  # the forced alert
+    for k in range(1, round(SCENE.duration_s / CYCLE_S) + 1):
+        now = round(k * CYCLE_S, 6)
+        new = traffic.cycles.get(now, [])
+        out = pipeline.step(now, new)
+        ran = {r.uas_id for r in out.detector_results}
+        if any(c.uas_id == SPOOFER_ID for c in new):
+            assert SPOOFER_ID in ran  # alerted: never waits
+        for arrived_s, _claim in pipeline._waiting:
+            assert now - arrived_s < cfg.max_claim_wait_s  # overdue ones ran
+
+
+def test_the_bound_is_checked() -> None:
+    with pytest.raises(FieldValueError, match="max_claims_per_cycle"):
+        PipelineConfig(max_claims_per_cycle=-1)
+    with pytest.raises(FieldValueError, match="max_claim_wait_s"):
+        dataclasses.replace(PipelineConfig(), max_claim_wait_s=0.0)
