@@ -101,7 +101,7 @@ def _reference(
     floor_ok = (path[..., 2] <= -cfg.min_altitude_m) | (path[..., 2] <= p0[2] + 1.0)
     ceiling_ok = (path[..., 2] >= -cfg.max_altitude_m) | (path[..., 2] >= p0[2] - 1.0)
     envelope_ok = np.all(floor_ok & ceiling_ok, axis=1)
-    return RolloutScores(goal_term, h, intrusion, envelope_ok, min_sep)
+    return RolloutScores(goal_term, h, intrusion, envelope_ok, min_sep, len(goal_term))
 
 
 def _threshold(now: float, p0: FloatArray, r: Region, cfg: PlannerConfig) -> float:
