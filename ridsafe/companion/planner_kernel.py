@@ -314,7 +314,7 @@ def _goal_score(path: FloatArray, goal: FloatArray, regions: Regions, kp: Kernel
     goal_sum = 0.0
     for k in range(n_k):
         goal_sum += _goal_term(path[k, 0] - goal[0], path[k, 1] - goal[1], path[k, 2] - goal[2], kp)
-    return goal_sum / n_k + _extension_loss(path[n_k - 1], goal, n_k, regions, kp)
+    return float(goal_sum / n_k + _extension_loss(path[n_k - 1], goal, n_k, regions, kp))
 
 
 @_inline
