@@ -46,6 +46,7 @@ Deterministic: no randomness; ties between equal rollouts go to the right-hand t
 
 from __future__ import annotations
 
+import itertools
 import logging
 import math
 from dataclasses import dataclass
@@ -160,7 +161,7 @@ def choose_action(
 
 
 def _finite(*vectors: Vec3) -> bool:
-    return all(math.isfinite(x) for v in vectors for x in v)
+    return all(map(math.isfinite, itertools.chain.from_iterable(vectors)))
 
 
 def _vec(x: FloatArray) -> Vec3:
