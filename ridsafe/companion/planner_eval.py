@@ -180,10 +180,9 @@ def _region_arrays(
         return np.zeros((0, k, 3)), np.zeros((0, k, 3, 3)), np.zeros((0, k))
     c = np.array([r.center_ned_m for r in regions], dtype=np.float64)
     v = np.array([r.v_ned_m_s for r in regions], dtype=np.float64)
-    cov = np.array([r.cov_ned_m2 for r in regions], dtype=np.float64)
-    cov = 0.5 * (cov + np.swapaxes(cov, -1, -2))
-    lam, vec = np.linalg.eigh(cov)  # (R, 3), (R, 3, 3)
-    lam = np.maximum(lam, MIN_EIGENVALUE_M2)
+    eigen = [_eigen(np.array(r.cov_ned_m2, dtype=np.float64).tobytes()) for r in regions]
+    lam = np.array([e[0] for e in eigen])  # (R, 3)
+    vec = np.array([e[1] for e in eigen])  # (R, 3, 3)
     horizon = (now_s - np.array([r.t_s for r in regions]))[:, None] + tau[None, :]  # (R, K)
     horizon = np.maximum(horizon, 0.0)
     center: FloatArray = c[:, None, :] + v[:, None, :] * horizon[..., None]
@@ -191,6 +190,19 @@ def _region_arrays(
     pinv: FloatArray = np.einsum("rij,rkj,rlj->rkil", vec, 1.0 / lam_k, vec)
     sigma_min: FloatArray = np.sqrt(lam_k.min(axis=-1))
     return center, pinv, sigma_min
+
+
+@functools.lru_cache(maxsize=256)
+def _eigen(cov_bytes: bytes) -> tuple[FloatArray, FloatArray]:
+    """Eigenvalues (floored) and eigenvectors of a region's covariance (the 3 x 3 float64
+    array's bytes: -0.0 is not 0.0 here). Cached: a region is the same for many decisions
+    of many aircraft, and eigh costs more than all the rest of a scene."""
+    cov = np.frombuffer(cov_bytes, dtype=np.float64).reshape(3, 3)
+    lam, vec = np.linalg.eigh(0.5 * (cov + cov.T))
+    lam = np.maximum(lam, MIN_EIGENVALUE_M2)
+    lam.setflags(write=False)
+    vec.setflags(write=False)
+    return lam, vec
 
 
 def score_actions(
