@@ -216,8 +216,8 @@ def score_actions(
 ) -> RolloutScores:
     """Score the rollouts of ``actions`` (positions in the local NED frame): all of them, or,
     given ``choose_action``'s ``right_turn_bias``, only those that can still be chosen
-    (``planner_kernel.score_bounded``; the others have G = H = -inf, I = +inf, separation
-    NaN, and ``choose_action`` picks what it would pick from all of them)."""
+    (``planner_kernel.score_bounded``; the others have H = -inf, I = +inf, separation NaN,
+    G = -inf or exact, and ``choose_action`` picks what it would pick from all of them)."""
     n = len(actions)
     out = np.empty((4, n))
     ok = np.empty(n, dtype=np.bool_)

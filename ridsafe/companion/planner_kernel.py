@@ -21,18 +21,26 @@ of sample k to the goal, lo_a, hi_a and m_a their min, max and mean, and V(d) = 
     J_a  = (G_a + H_a) + b_a  <=  G_a + b_a  <=  U_a + b_a                  (H_a <= 0: every
                                                                             hazard reward < 0)
 
-U_a costs K square roots and two exps per action where G_a costs K + K2 exps and the hazard
-loops. The actions are visited in decreasing U_a + b_a (the hover always first: the planner
-reads its intrusion and separation); once U_a + b_a < J* (the best J of a safe action scored
-so far), that action and every later one has J < J* and, as J* <= the best G + b scored so
-far, also G + b below the goal-only best: neither argmax can change, so they are left
-unscored. Strict < keeps ties scored (argmax takes the first of equal values). Floating
-point: every step is a rounded +, x, / , sqrt or exp; rounding is monotone except exp (only
-faithfully rounded) and the chord's own arithmetic, whose errors are a few ulps of V: U_a is
-inflated by 1e-9 of itself and 1e-18 of V(0) (far above them) to cover it. With no safe action
-scored, J* = -inf and every action is scored: the fallback (least intrusion) sees them all.
+The hazard side: H_a <= h_a,1, the hazard of the first sample (H_a is the worst sample's
+hazard plus a non-positive mean term), and h_a,1 is computed as the scoring computes it (no
+conflict has lasted yet at the first sample). So::
+
+    J_a  <=  (U_a + h_a,1) + b_a  =: B_a                 and     G_a + b_a  <=  U_a + b_a
+
+U_a costs K square roots and two exps per action, h_a,1 one neighbour pass; G_a costs K + K2
+exps and H_a K neighbour passes. The hover (the planner reads its intrusion and separation)
+and the action of largest B_a are scored first; J* = the best J of a safe action scored so
+far. Then the actions with B_a >= J* are scored in decreasing B_a until B_a < J*: that action
+and every later one has J < J*, so the safe argmax cannot change. The goal-only argmax is
+kept by scoring G_a alone (no hazards) for every action inside the altitude band whose
+U_a + b_a is not below F* (the best G + b scored so far). Strict < keeps ties scored (argmax
+takes the first of equal values). Floating point: every step is a rounded +, x, /, sqrt or
+exp; rounding is monotone except exp (only faithfully rounded) and the chord's own
+arithmetic, whose errors are a few ulps of V: U_a is inflated by 1e-9 of itself and 1e-18
+of V(0) (far above them) to cover it. With no safe action scored, J* = -inf and every action
+is scored: the fallback (least intrusion) sees them all.
 ``tests/companion/test_planner_kernel.py`` checks the choice against ``score_all`` on random
-and recorded scenes.
+scenes of every kind.
 
 The kernel loops over actions x samples x (neighbours + regions) in compiled code, with no
 (A, K, N) temporaries. Two things keep the neighbour loop short. Per sample, only neighbours
@@ -170,8 +178,8 @@ def score_bounded(
 ) -> int:
     """``score_all`` for the actions that can still be chosen (module docstring), ``bias :
     (A,)`` being b_a; returns how many were scored. Every ``ok[a]`` is E_a; an action left
-    unscored has G = H = -inf, I = +inf and separation NaN. The last action (the hover) is
-    always scored."""
+    unscored has H = -inf, I = +inf, separation NaN and G = -inf, or its exact G where the
+    goal-only argmax needed it. The last action (the hover) is always scored."""
     return int(_score_bounded_kernel(p0, v0, goal, va, bias, tau, nb_by_time, regions, kp, out, ok))
 
 
@@ -226,24 +234,41 @@ def _score_bounded_kernel(
         key[a] = -((goal_bound[a] + h_first) + bias[a])
         goal_bound[a] += bias[a]
         out[0, a], out[1, a], out[2, a], out[3, a] = -np.inf, -np.inf, np.inf, np.nan
-    key[n_a - 1] = -np.inf  # the hover first
-    best, best_free = -np.inf, -np.inf  # J*, F* of the module docstring
-    scored = 0
-    for a in np.argsort(key):
-        if -key[a] < best:
-            break  # this bound and every later one: below J*
+    key[n_a - 1] = -np.inf  # the hover first, then the most promising other action: their
+    best, best_free = -np.inf, -np.inf  # J* (and F*) bounds all others before any sort
+    for a in (n_a - 1, int(np.argmin(key[: n_a - 1]))):  # (A >= 4: headings + 3)
         _score_action(a, p0, v0, goal, va, tau, near, n_near, ln_reward, regions, kp, path,
                       conflicts, out, ok)  # fmt: skip
-        scored += 1
-        if ok[a]:
-            best_free = max(best_free, out[0, a] + bias[a])
-            if out[2, a] <= 0.0:
-                best = max(best, (out[0, a] + out[1, a]) + bias[a])
+        best, best_free = _update_best(a, out, ok, bias, best, best_free)
+    done = np.zeros(n_a, dtype=np.bool_)
+    done[n_a - 1] = done[int(np.argmin(key[: n_a - 1]))] = True
+    rest = np.flatnonzero(-key >= best)  # all when no safe action yet (best = -inf)
+    for a in rest[np.argsort(key[rest])]:
+        if -key[a] < best:
+            break  # this bound and every later one: below J*
+        if done[a]:
+            continue
+        done[a] = True
+        _score_action(a, p0, v0, goal, va, tau, near, n_near, ln_reward, regions, kp, path,
+                      conflicts, out, ok)  # fmt: skip
+        best, best_free = _update_best(a, out, ok, bias, best, best_free)
     for a in range(n_a):  # G alone where the goal-only argmax may still lie
-        if ok[a] and out[1, a] == -np.inf and not goal_bound[a] < best_free:
+        if ok[a] and not done[a] and not goal_bound[a] < best_free:
             _rollout_into(p0, v0, va[a], tau, kp.accel, path)
             out[0, a] = _goal_score(path, goal, regions, kp)
-    return scored
+    return int(np.count_nonzero(done))
+
+
+@_inline
+def _update_best(
+    a: int, out: FloatArray, ok: NDArray[np.bool_], bias: FloatArray, best: float, free: float
+) -> tuple[float, float]:
+    """(J*, F*) after action a was scored."""
+    if ok[a]:
+        free = max(free, out[0, a] + bias[a])
+        if out[2, a] <= 0.0:
+            best = max(best, (out[0, a] + out[1, a]) + bias[a])
+    return best, free
 
 
 @_inline

@@ -69,6 +69,17 @@ def _message_classes() -> list[type]:
     return found
 
 
+_MAKERS: dict[type, typing.Callable[[np.random.Generator, bool], object]] = {
+    float: lambda rng, broken: float(
+        (_FLOATS if broken else _FLOATS[:5])[rng.integers(len(_FLOATS) if broken else 5)]
+    ),
+    int: lambda rng, broken: int(rng.choice(_INTS)),
+    bool: lambda rng, broken: bool(rng.random() < 0.5),
+    str: lambda rng, broken: _STRS[rng.integers(len(_STRS) if broken else 1)],
+    bytes: lambda rng, broken: bytes(rng.integers(0, 256, int(rng.integers(0, 4))).tolist()),
+}
+
+
 def _value(rng: np.random.Generator, hint: object, broken: bool) -> object:
     """A value for a field annotated ``hint``: of that type, or (``broken``) anything."""
     if broken and rng.random() < 0.15:
@@ -76,18 +87,10 @@ def _value(rng: np.random.Generator, hint: object, broken: bool) -> object:
     args = typing.get_args(hint)
     if typing.get_origin(hint) is tuple:
         return tuple(_value(rng, a, broken) for a in args)
-    if float in args or hint is float:
-        if hint is not float and rng.random() < 0.2:
-            return None
-        pool = _FLOATS if broken else _FLOATS[:5]
-        return float(pool[rng.integers(len(pool))])
-    if int in args or hint is int:
-        return None if hint is not int and rng.random() < 0.2 else int(rng.choice(_INTS))
-    if hint is bool:
-        return bool(rng.random() < 0.5)
-    if hint is str:
-        return _STRS[rng.integers(len(_STRS) if broken else 1)]
-    return bytes(rng.integers(0, 256, int(rng.integers(0, 4))).astype(np.uint8))
+    if type(None) in args and rng.random() < 0.2:
+        return None
+    base = next(t for t in _MAKERS if t is hint or t in args)
+    return _MAKERS[base](rng, broken)
 
 
 @pytest.mark.parametrize("cls", _message_classes(), ids=lambda cls: cls.__name__)
