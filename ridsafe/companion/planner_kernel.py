@@ -230,7 +230,8 @@ def _score_bounded_kernel(
         _rollout_into(p0, v0, va[a], tau, kp.accel, path)
         ok[a] = _envelope_and_bound(path, goal, p0[2], kp, goal_bound, a)
         conflicts[:] = 0
-        h_first = _hazard_at(path[0], 0, near, n_near, ln_reward, conflicts, regions, kp)[0]
+        x, y, z = path[0, 0], path[0, 1], path[0, 2]
+        h_first = _hazard_at(x, y, z, 0, near, n_near, ln_reward, conflicts, regions, kp)[0]
         key[a] = -((goal_bound[a] + h_first) + bias[a])
         goal_bound[a] += bias[a]
         out[0, a], out[1, a], out[2, a], out[3, a] = -np.inf, -np.inf, np.inf, np.nan
@@ -318,14 +319,16 @@ def _score_action(
     n_k = tau.shape[0]
     _rollout_into(p0, v0, va[a], tau, kp.accel, path)
     conflicts[:] = 0
-    worst, hazard_sum, intrusion, min_d2 = 0.0, 0.0, 0.0, np.inf
+    goal_sum, worst, hazard_sum, intrusion, min_d2 = 0.0, 0.0, 0.0, 0.0, np.inf
     envelope_ok = True
     for k in range(n_k):
-        envelope_ok = envelope_ok and _in_altitude_band(path[k, 2], p0[2], kp)
-        h, d2, intruded = _hazard_at(path[k], k, near, n_near, ln_reward, conflicts, regions, kp)
+        x, y, z = path[k, 0], path[k, 1], path[k, 2]
+        goal_sum += _goal_term(x - goal[0], y - goal[1], z - goal[2], kp)
+        envelope_ok = envelope_ok and _in_altitude_band(z, p0[2], kp)
+        h, d2, intruded = _hazard_at(x, y, z, k, near, n_near, ln_reward, conflicts, regions, kp)
         worst, hazard_sum = min(worst, h), hazard_sum + h
         min_d2, intrusion = min(min_d2, d2), intrusion + intruded
-    out[0, a] = _goal_score(path, goal, regions, kp)
+    out[0, a] = goal_sum / n_k + _extension_loss(path[n_k - 1], goal, n_k, regions, kp)
     out[1, a] = worst + kp.hazard_mean_weight * hazard_sum / n_k
     out[2, a] = intrusion
     out[3, a] = math.sqrt(min_d2)
@@ -334,7 +337,8 @@ def _score_action(
 
 @_inline
 def _goal_score(path: FloatArray, goal: FloatArray, regions: Regions, kp: KernelParams) -> float:
-    """G_a of a rolled-out path: the mean goal term plus the extension's loss X_a."""
+    """G_a of a rolled-out path: the mean goal term plus the extension's loss X_a (the sums
+    of ``_score_action``, in its order: the same bits)."""
     n_k = path.shape[0]
     goal_sum = 0.0
     for k in range(n_k):
@@ -344,7 +348,9 @@ def _goal_score(path: FloatArray, goal: FloatArray, regions: Regions, kp: Kernel
 
 @_inline
 def _hazard_at(
-    p: FloatArray,
+    x: float,
+    y: float,
+    z: float,
     k: int,
     near: FloatArray,
     n_near: NDArray[np.int64],
@@ -354,8 +360,7 @@ def _hazard_at(
     kp: KernelParams,
 ) -> tuple[float, float, float]:
     """(h_k, squared distance to the nearest neighbour visited, shield intrusion) of sample
-    k at ``p``; counts the conflicts (neighbours within d_safe) in ``conflicts``."""
-    x, y, z = p[0], p[1], p[2]
+    k at (x, y, z); counts the conflicts (neighbours within d_safe) in ``conflicts``."""
     d_safe2 = kp.d_safe * kp.d_safe
     best, d2 = -np.inf, np.inf
     for i in range(n_near[k]):
