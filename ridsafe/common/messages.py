@@ -202,6 +202,9 @@ class RegionFlags(enum.IntFlag):
     COASTING = 2
 
 
+_SAFETY_ARMED = int(MavModeFlag.SAFETY_ARMED)
+
+
 # --- Autopilot link (standard common.xml messages) ------------------------------------------
 
 
@@ -216,7 +219,7 @@ class Heartbeat:
 
     @property
     def armed(self) -> bool:
-        return bool(self.base_mode & MavModeFlag.SAFETY_ARMED)
+        return bool(self.base_mode & _SAFETY_ARMED)  # an int: IntFlag's & is slow
 
 
 @quick_init

@@ -46,6 +46,7 @@ Deterministic: no randomness; ties between equal rollouts go to the right-hand t
 
 from __future__ import annotations
 
+import itertools
 import logging
 import math
 from dataclasses import dataclass
@@ -160,7 +161,7 @@ def choose_action(
 
 
 def _finite(*vectors: Vec3) -> bool:
-    return all(math.isfinite(x) for v in vectors for x in v)
+    return all(map(math.isfinite, itertools.chain.from_iterable(vectors)))
 
 
 def _vec(x: FloatArray) -> Vec3:
@@ -185,7 +186,8 @@ class FastMdpPlanner:
         cfg, origin = self.config, np.zeros(3)
         scene = build_scene(0.0, origin, (), (), cfg)
         actions = build_action_set(cfg, 0.0)
-        score_actions(origin, origin, origin + 1.0, actions, scene, self._kernel_params)
+        kp, bias = self._kernel_params, cfg.right_turn_bias
+        score_actions(origin, origin, origin + 1.0, actions, scene, kp, bias)
 
     def plan(self, planner_input: PlannerInput) -> PlannerDecision:
         cfg = self.config
@@ -199,7 +201,11 @@ class FastMdpPlanner:
         neighbours, regions = self._hazards(planner_input)
         scene = build_scene(planner_input.t_s, p0, neighbours, regions, cfg)
         actions = build_action_set(cfg, heading_to_rad(p0, goal))
-        scores = score_actions(p0, v0, goal, actions, scene, self._kernel_params)
+        # Only the actions that can still be chosen are scored (choose_action's pick is the
+        # same as from all of them: the bound argument of planner_kernel).
+        scores = score_actions(
+            p0, v0, goal, actions, scene, self._kernel_params, cfg.right_turn_bias
+        )
         hover = len(actions) - 1
         if self.arrived and (scores.intrusion_m[hover] <= 0.0 or -p0[2] <= cfg.min_altitude_m):
             return self._arrival_decision(goal, scene)

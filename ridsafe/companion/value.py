@@ -36,7 +36,7 @@ tau = t_now - t_estimate + rollout time (our choice, sigma_v in m/s)::
       c(tau) = c + v tau,        P(tau) = P + (sigma_v tau)^2 I                         (5)
 
 Functions here are plain numpy over any leading shape; the compiled rollout kernel in
-:mod:`ridsafe.companion.planner_eval` implements the same equations and is tested against them.
+:mod:`ridsafe.companion.planner_kernel` implements the same equations and is tested against them.
 """
 
 from __future__ import annotations

@@ -15,6 +15,7 @@ from ridsafe.companion.planner_config import PlannerConfig
 from ridsafe.companion.planner_eval import (
     KernelParams,
     RolloutScores,
+    _eigen,
     build_scene,
     score_actions,
 )
@@ -101,7 +102,7 @@ def _reference(
     floor_ok = (path[..., 2] <= -cfg.min_altitude_m) | (path[..., 2] <= p0[2] + 1.0)
     ceiling_ok = (path[..., 2] >= -cfg.max_altitude_m) | (path[..., 2] >= p0[2] - 1.0)
     envelope_ok = np.all(floor_ok & ceiling_ok, axis=1)
-    return RolloutScores(goal_term, h, intrusion, envelope_ok, min_sep)
+    return RolloutScores(goal_term, h, intrusion, envelope_ok, min_sep, len(goal_term))
 
 
 def _threshold(now: float, p0: FloatArray, r: Region, cfg: PlannerConfig) -> float:
@@ -231,3 +232,15 @@ def test_degenerate_covariance_is_floored() -> None:
     region = Region("S", (30.0, 0.0, 0.0), cov, CHI2_95, (0.0, 0.0, 0.0), 0.0, 5.0)
     scene = build_scene(0.0, np.zeros(3), (), (region,), PlannerConfig())
     assert np.all(np.isfinite(scene.rg_pinv_1_m2)) and np.all(scene.rg_sigma_min_m >= 1.0)
+
+
+def test_cached_region_eigen_equals_the_stacked_decomposition() -> None:
+    """The per-region cache (planner_eval._eigen) gives the bits eigh gives on the stack."""
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        a = rng.normal(size=(3, 3, 3)) * rng.uniform(1.0, 100.0)
+        cov = a @ np.swapaxes(a, -1, -2)
+        lam, vec = np.linalg.eigh(0.5 * (cov + np.swapaxes(cov, -1, -2)))
+        cached = [_eigen(np.array(c).tobytes()) for c in cov]
+        np.testing.assert_array_equal(np.maximum(lam, 1.0), [e[0] for e in cached])
+        np.testing.assert_array_equal(vec, [e[1] for e in cached])
