@@ -113,6 +113,9 @@ class CompanionConfig:
     pad_clearance_m: float = 0.0
     pad_lookahead_s: float = 10.0  # a region is projected this far ahead along its velocity
     pad_ceiling_m: float = 30.0  # at take-off, aircraft higher than this over the pad pass
+    # Aircraft whose Remote ID puts them on the ground (within 1 m of home level, still) are
+    # not handed to the planner as traffic (planner_driver.py); False hands every claim.
+    ignore_grounded_traffic: bool = False
     # -- loops ------------------------------------------------------------------------------
     replan_period_s: float = 0.5
     observation_batch_s: float = 0.25

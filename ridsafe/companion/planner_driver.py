@@ -8,6 +8,9 @@ target as SET_POSITION_TARGET_LOCAL_NED (position + velocity, type_mask 3520; po
 refreshing are held, inflated, when ``stale_region_hold_s`` > 0 (``stale_regions``). A
 planner that raises or returns a non-finite target holds position instead, and the error is
 logged and counted.
+With ``ignore_grounded_traffic`` the neighbours that claim to stand on the ground (parked on
+their pads, or delivered) are left out: they are no hazard to an aircraft in the air, and
+among dense traffic the planner otherwise crawls past the aircraft parked at a depot.
 Every decision goes to ``/companion/decisions``. With ``pad_clearance_m`` > 0 it also tells
 the mission what covers its pad before take-off and while descending (``pad_clearance``),
 with the neighbours and regions the planner's policy lets in.
@@ -28,7 +31,7 @@ from ridsafe.companion.events import CompanionLog
 from ridsafe.companion.mission import Phase
 from ridsafe.companion.mission_driver import MissionDriver
 from ridsafe.companion.neighbours import NeighbourTable
-from ridsafe.companion.pad_clearance import pad_blocker
+from ridsafe.companion.pad_clearance import on_ground, pad_blocker
 from ridsafe.companion.planner_api import (
     Planner,
     PlannerDecision,
@@ -81,6 +84,7 @@ class PlannerDriver:
         self._pad_lookahead_s = config.pad_lookahead_s
         self._pad_ceiling_m = config.pad_ceiling_m
         self._pad_timer = Periodic(config.replan_period_s)
+        self._ignore_grounded = config.ignore_grounded_traffic
 
     def step(
         self,
@@ -106,12 +110,16 @@ class PlannerDriver:
             return
         sim_now = self.own.sim_time(now_s)
         to_local = self.own.to_local
+        claims = neighbours.neighbours(sim_now, to_local, regions.flagged)
+        home = self.own.home
+        if self._ignore_grounded and home is not None:
+            claims = tuple(n for n in claims if not on_ground(n, home.p_ned_m[2]))
         planner_input = PlannerInput(
             t_s=sim_now,
             p_ned_m=lpn.p_ned_m,
             v_ned_m_s=lpn.v_ned_m_s,
             goal_ned_m=goal,
-            neighbours=neighbours.neighbours(sim_now, to_local, regions.flagged),
+            neighbours=claims,
             regions=regions.regions(sim_now, to_local)
             + held_regions(
                 regions.expired_last, sim_now, self._hold_s, self._growth_m2_s, to_local
