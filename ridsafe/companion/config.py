@@ -108,6 +108,14 @@ class CompanionConfig:
     # avoiding traffic and unsafe regions); below this height the autopilot's LAND takes over.
     land_handover_alt_m: float = 12.0
     settled_speed_m_s: float = 0.5  # HOVER is DONE below this speed
+    # Take-off and landing wait while an unsafe region or another airborne aircraft comes
+    # within this of the pad, horizontally (companion/pad_clearance.py); 0 never waits.
+    pad_clearance_m: float = 0.0
+    pad_lookahead_s: float = 10.0  # a region is projected this far ahead along its velocity
+    pad_ceiling_m: float = 30.0  # at take-off, aircraft higher than this over the pad pass
+    # Aircraft whose Remote ID puts them on the ground (within 1 m of home level, still) are
+    # not handed to the planner as traffic (planner_driver.py); False hands every claim.
+    ignore_grounded_traffic: bool = False
     # -- loops ------------------------------------------------------------------------------
     replan_period_s: float = 0.5
     observation_batch_s: float = 0.25
@@ -150,6 +158,9 @@ class CompanionConfig:
                 f"expected >= arrival_radius_m ({self.arrival_radius_m}), "
                 f"got {self.approach_radius_m}",
             )
+        check_in_interval("pad_clearance_m", self.pad_clearance_m, -1e-12, 1000.0)
+        check_in_interval("pad_lookahead_s", self.pad_lookahead_s, -1e-12, 120.0)
+        check_in_interval("pad_ceiling_m", self.pad_ceiling_m, 0.0, 500.0)
         check_in_interval("stale_region_hold_s", self.stale_region_hold_s, -1e-12, 3600.0)
         check_in_interval("stale_region_growth_m2_s", self.stale_region_growth_m2_s, -1e-12, 1e6)
         if not 0 <= self.command_retries <= 100:

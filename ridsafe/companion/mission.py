@@ -75,7 +75,7 @@ class Phase(enum.Enum):
 
 class Trigger(enum.Enum):
     HEARTBEAT = "autopilot heartbeat heard"
-    DEPARTURE_TIME = "the scheduled departure time has come"
+    DEPARTURE_TIME = "the scheduled departure time has come and the pad is clear"
     COMMANDS_DONE = "the phase's commands are answered"
     COMMANDS_FAILED = "a required command failed after every retry"
     AIRBORNE = "already flying above the take-off altitude"
@@ -105,6 +105,7 @@ class FlightStatus:
     goal_alt_error_m: float | None = None
     speed_m_s: float | None = None
     departure_due: bool = True
+    pad_clear: bool = True  # nothing covers the take-off / delivery pad (pad_clearance.py)
 
 
 @dataclass(frozen=True, slots=True)
@@ -201,7 +202,8 @@ def _goal_reached(f: FlightStatus, c: CompanionConfig, entered_s: float) -> bool
 
 
 def _low_enough(f: FlightStatus, c: CompanionConfig, entered_s: float) -> bool:
-    return f.altitude_m is not None and f.altitude_m <= c.land_handover_alt_m
+    """Low enough to hand the landing over, and the delivery pad clear (held otherwise)."""
+    return f.pad_clear and f.altitude_m is not None and f.altitude_m <= c.land_handover_alt_m
 
 
 def _settled(f: FlightStatus, c: CompanionConfig, entered_s: float) -> bool:
@@ -210,7 +212,9 @@ def _settled(f: FlightStatus, c: CompanionConfig, entered_s: float) -> bool:
 
 PHASE_CONDITIONS: dict[Phase, tuple[tuple[Trigger, Condition], ...]] = {
     Phase.WAIT_HEARTBEAT: ((Trigger.HEARTBEAT, lambda f, c, t: f.heartbeat_s is not None),),
-    Phase.WAIT_DEPARTURE: ((Trigger.DEPARTURE_TIME, lambda f, c, t: f.departure_due),),
+    Phase.WAIT_DEPARTURE: (
+        (Trigger.DEPARTURE_TIME, lambda f, c, t: f.departure_due and f.pad_clear),
+    ),
     Phase.TAKEOFF: ((Trigger.AIRBORNE, _airborne),),
     Phase.CLIMB: ((Trigger.DISARMED, _disarmed), (Trigger.CLIMBED, _at_takeoff_alt)),
     Phase.CRUISE: ((Trigger.DISARMED, _disarmed), (Trigger.GOAL_REACHED, _goal_reached)),

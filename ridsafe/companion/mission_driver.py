@@ -4,6 +4,11 @@ commands to send, and whether the aircraft is in an emergency.
 ``Mission`` (mission.py) is the state machine; ``MissionDriver`` feeds it a ``FlightStatus``
 built from the autopilot's telemetry and the goal in the autopilot's local NED frame, sends
 the commands it asks for, hands it COMMAND_ACKs, and logs its events.
+
+Pad clearance (``pad_clearance_m`` > 0; ``pad_clearance``): the planner driver, which sees the
+neighbours and regions, reports what covers the pad (``set_pad_blocker``); the take-off waits
+until a check made once the departure is due finds the pad clear, and a landing holds its
+height above the delivery point (and does not hand over to LAND) while the point is covered.
 """
 
 from __future__ import annotations
@@ -54,6 +59,8 @@ class MissionDriver:
         self.mission = Mission(config, spec.sysid, AUTOPILOT_COMPONENT)
         self.counters = MissionCounters()
         self._goal_cache: tuple[frames.GeodeticOrigin, Vec3, Vec3] | None = None
+        self._pad_blocker: str | None = None
+        self._pad_checked = False  # a check since the departure came due / the descent began
 
     @property
     def phase(self) -> Phase:
@@ -84,7 +91,39 @@ class MissionDriver:
             ground = self.own.to_local(lat, lon, home.alt_msl_m)
             self._goal_cache = (origin, cruise, ground)
         _, cruise, ground = self._goal_cache
-        return ground if self.mission.phase is Phase.DESCEND else cruise
+        if self.mission.phase is not Phase.DESCEND:
+            return cruise
+        lpn = self.own.lpn
+        if self._pad_blocker is not None and lpn is not None:
+            return (ground[0], ground[1], min(lpn.p_ned_m[2], ground[2]))  # hold the height
+        return ground
+
+    def pad_ned_m(self) -> Vec3 | None:
+        """The pad the mission is about to use: its own (home) before take-off, the delivery
+        point on the ground while descending; None in other phases or before home is known."""
+        phase = self.mission.phase
+        if phase is Phase.WAIT_DEPARTURE and self.own.home is not None:
+            return self.own.home.p_ned_m
+        if phase is Phase.DESCEND and self._goal_cache is not None:
+            return self._goal_cache[2]
+        return None
+
+    def set_pad_blocker(self, now_s: float, blocker: str | None) -> None:
+        """What covers the pad now (None: clear); logs when that changes."""
+        if blocker != self._pad_blocker:
+            if blocker is None:
+                self.log.event(now_s, "pad_clear", f"{self.mission.phase.value}: pad clear")
+            else:
+                self.log.event(now_s, "pad_blocked", f"{self.mission.phase.value}: {blocker}")
+        self._pad_blocker = blocker
+        self._pad_checked = True
+
+    def _pad_clear(self, departure_due: bool) -> bool:
+        if self.config.pad_clearance_m <= 0.0:
+            return True
+        if self.mission.phase is Phase.WAIT_DEPARTURE and not departure_due:
+            self._pad_checked = False
+        return self._pad_checked and self._pad_blocker is None
 
     def flight_status(self, now_s: float) -> FlightStatus:
         gpi, lpn, goal = self.own.gpi, self.own.lpn, self.goal_local()
@@ -95,9 +134,11 @@ class MissionDriver:
                 p = lpn.p_ned_m
                 distance = math.hypot(goal[0] - p[0], goal[1] - p[1])
                 alt_error = abs(goal[2] - p[2])
+        departure_due = self.own.sim_time(now_s) >= self.spec.departure_s
         return FlightStatus(
             link_up=self.autopilot.link_up(now_s),
-            departure_due=self.own.sim_time(now_s) >= self.spec.departure_s,
+            departure_due=departure_due,
+            pad_clear=self._pad_clear(departure_due),
             heartbeat_s=self.own.heartbeat_s,
             armed=self.own.armed,
             altitude_m=None if gpi is None else gpi.relative_alt_m,

@@ -8,7 +8,12 @@ target as SET_POSITION_TARGET_LOCAL_NED (position + velocity, type_mask 3520; po
 refreshing are held, inflated, when ``stale_region_hold_s`` > 0 (``stale_regions``). A
 planner that raises or returns a non-finite target holds position instead, and the error is
 logged and counted.
-Every decision goes to ``/companion/decisions``.
+With ``ignore_grounded_traffic`` the neighbours that claim to stand on the ground (parked on
+their pads, or delivered) are left out: they are no hazard to an aircraft in the air, and
+among dense traffic the planner otherwise crawls past the aircraft parked at a depot.
+Every decision goes to ``/companion/decisions``. With ``pad_clearance_m`` > 0 it also tells
+the mission what covers its pad before take-off and while descending (``pad_clearance``),
+with the neighbours and regions the planner's policy lets in.
 """
 
 from __future__ import annotations
@@ -26,6 +31,7 @@ from ridsafe.companion.events import CompanionLog
 from ridsafe.companion.mission import Phase
 from ridsafe.companion.mission_driver import MissionDriver
 from ridsafe.companion.neighbours import NeighbourTable
+from ridsafe.companion.pad_clearance import on_ground, pad_blocker
 from ridsafe.companion.planner_api import (
     Planner,
     PlannerDecision,
@@ -74,6 +80,11 @@ class PlannerDriver:
         self._replan = Periodic(config.replan_period_s)
         self._hold_s = config.stale_region_hold_s
         self._growth_m2_s = config.stale_region_growth_m2_s
+        self._pad_clearance_m = config.pad_clearance_m
+        self._pad_lookahead_s = config.pad_lookahead_s
+        self._pad_ceiling_m = config.pad_ceiling_m
+        self._pad_timer = Periodic(config.replan_period_s)
+        self._ignore_grounded = config.ignore_grounded_traffic
 
     def step(
         self,
@@ -84,6 +95,8 @@ class PlannerDriver:
         send: SendSetpoint,
     ) -> None:
         phase = mission.phase
+        if self._pad_check_due(now_s, mission):
+            self._check_pad(now_s, mission, neighbours, regions)
         if phase not in _ACTIVE or not self._replan.due(now_s):
             return
         goal = mission.goal_local()
@@ -97,12 +110,16 @@ class PlannerDriver:
             return
         sim_now = self.own.sim_time(now_s)
         to_local = self.own.to_local
+        claims = neighbours.neighbours(sim_now, to_local, regions.flagged)
+        home = self.own.home
+        if self._ignore_grounded and home is not None:
+            claims = tuple(n for n in claims if not on_ground(n, home.p_ned_m[2]))
         planner_input = PlannerInput(
             t_s=sim_now,
             p_ned_m=lpn.p_ned_m,
             v_ned_m_s=lpn.v_ned_m_s,
             goal_ned_m=goal,
-            neighbours=neighbours.neighbours(sim_now, to_local, regions.flagged),
+            neighbours=claims,
             regions=regions.regions(sim_now, to_local)
             + held_regions(
                 regions.expired_last, sim_now, self._hold_s, self._growth_m2_s, to_local
@@ -115,6 +132,40 @@ class PlannerDriver:
         self.counters.decisions += 1
         send(self._target(now_s, decision.target_p_ned_m, decision.target_v_ned_m_s))
         self._log_decision(planner_input, decision, compute_ms)
+
+    def _pad_check_due(self, now_s: float, mission: MissionDriver) -> bool:
+        if self._pad_clearance_m <= 0.0 or mission.phase not in _PAD_PHASES:
+            return False
+        if mission.phase is Phase.WAIT_DEPARTURE and self.own.sim_time(now_s) < (
+            self.spec.departure_s
+        ):
+            return False
+        return self._pad_timer.due(now_s)
+
+    def _check_pad(
+        self, now_s: float, mission: MissionDriver, neighbours: NeighbourTable, regions: RegionStore
+    ) -> None:
+        pad, policy = mission.pad_ned_m(), getattr(self.planner, "policy", None)
+        if pad is None:
+            return
+        sim_now, to_local = self.own.sim_time(now_s), self.own.to_local
+        use_regions = policy is not None and policy.use_regions
+        trust_flagged = policy is None or policy.trust_flagged
+        live = regions.regions(sim_now, to_local) if use_regions else ()
+        region_ids = {r.uas_id for r in live}
+        claims = tuple(
+            n
+            for n in neighbours.neighbours(sim_now, to_local, regions.flagged)
+            if trust_flagged or not (n.flagged or n.uas_id in region_ids)
+        )
+        ceiling_m = self._pad_ceiling_m
+        lpn = self.own.lpn
+        if mission.phase is Phase.DESCEND and lpn is not None:
+            ceiling_m = pad[2] - lpn.p_ned_m[2]  # only aircraft below this one
+        blocker = pad_blocker(
+            pad, sim_now, claims, live, self._pad_clearance_m, self._pad_lookahead_s, ceiling_m
+        )
+        mission.set_pad_blocker(now_s, blocker)
 
     def _decide(self, now_s: float, planner_input: PlannerInput) -> PlannerDecision:
         """The planner's decision; on an exception or a non-finite target, hold position."""
@@ -164,3 +215,4 @@ class PlannerDriver:
 
 
 _ACTIVE = frozenset({Phase.CRUISE, Phase.DESCEND, Phase.HOVER})
+_PAD_PHASES = frozenset({Phase.WAIT_DEPARTURE, Phase.DESCEND})

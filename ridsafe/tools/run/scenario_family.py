@@ -2,11 +2,16 @@
 
 1 km x 1 km (ENU about the origin, x and y in [-500, 500] m); three depots; benign aircraft
 start at the depots in turn (aircraft k at depot k mod 3), each depot launching one aircraft
-every ``launch_interval_s`` from pads ``pad_spacing_m`` apart, so departing aircraft do not
-start inside each other's NMAC radius; each delivery site is drawn uniformly in the area
-between ``min_trip_m`` and ``max_trip_m`` from its depot; cruise altitudes are drawn from
-``cruise_alts_m``. One spoofer crosses the area on a straight line near its centre at
-constant speed and cruise altitude, broadcasting a constant offset.
+every ``launch_interval_s`` (faster when that would not fit in ``launch_window_s``) from pads
+``pad_spacing_m`` apart inside the area, so departing aircraft do not start inside each
+other's NMAC radius (``family_launches``: the schedule, and the refusal of an N that cannot be
+drawn); each delivery site is drawn uniformly in the area between ``min_trip_m`` and
+``max_trip_m`` from its depot and, for a late launch, near enough to its pad that a nominal
+flight (``nominal_takeoff_s``, then straight at ``nominal_speed_m_s``) arrives by
+``delivery_deadline_s`` (never binding for launches up to 20 s, so the paper's 4-16 aircraft
+are drawn as they always were); cruise altitudes are drawn from ``cruise_alts_m``. One
+spoofer crosses the area on a straight line near its centre at constant speed and cruise
+altitude, broadcasting a constant offset.
 
 The spoofer aims at the traffic, as an adversary would: ``spoofer_candidate_lines`` lines are
 drawn, and it flies the one that the benign aircraft's nominal flights (straight from pad to
@@ -45,6 +50,7 @@ from ridsafe.common.scenario import (
     cta2063_serial,
 )
 from ridsafe.tools.run.family_adversaries import AdversaryDraw, draw_ghost, draw_spoofer
+from ridsafe.tools.run.family_launches import Launch, LaunchRules, launch_schedule
 
 SERIAL_MAKER = "RSAF"
 
@@ -59,13 +65,21 @@ class FamilyConfig:
         (380.0, -380.0, 0.0),
         (0.0, 400.0, 0.0),
     )
-    launch_interval_s: float = 4.0
+    launch_interval_s: float = 4.0  # the longest interval between launches of a depot
+    launch_window_s: float = 40.0  # every launch at or before this (the cadence adapts)
+    min_launch_interval_s: float = 1.0  # a denser family is refused
     # Pads of one depot: the first at the depot, the next on rings around it (6 q pads on
     # ring q, radius q * pad_spacing_m), so pads are >= pad_spacing_m apart: above the
     # 50 m NMAC radius, aircraft climbing from neighbouring pads do not count as an NMAC.
     pad_spacing_m: float = 55.0
+    max_pad_rings: int = 2  # a depot's pads lie within max_pad_rings * pad_spacing_m
+    pad_margin_m: float = 5.0  # pads at least this far inside the area's edge
+    pad_reuse_s: float = 15.0  # a pad launches again no sooner than this
     min_trip_m: float = 300.0
     max_trip_m: float = 550.0  # a delivery, with detours and the landing, fits in 120 s
+    # A nominal flight from the pad arrives by this time (caps the trips of late launches;
+    # the run's duration is not used, so --duration never changes the draw).
+    delivery_deadline_s: float = 100.0
     cruise_alts_m: tuple[float, ...] = (50.0, 60.0, 70.0)
     spoofer_speed_m_s: float = 7.0
     spoofer_alt_m: float = 60.0
@@ -90,14 +104,42 @@ class FamilyConfig:
             raise FieldValueError("spoofer_candidate_lines", "need at least one line")
         if self.nominal_speed_m_s <= 0.0 or self.nominal_climb_m_s <= 0.0:
             raise FieldValueError("nominal_speed_m_s", "nominal speeds must be > 0")
+        if not 0.0 < self.min_launch_interval_s <= self.launch_interval_s:
+            raise FieldValueError(
+                "min_launch_interval_s", "expected 0 < min_launch_interval_s <= launch_interval_s"
+            )
+        if self.max_pad_rings < 0:
+            raise FieldValueError("max_pad_rings", f"expected >= 0, got {self.max_pad_rings}")
+        latest_trip_m = self.nominal_speed_m_s * (
+            self.delivery_deadline_s - self.launch_window_s - self.nominal_takeoff_s
+        )
+        if latest_trip_m < self.min_trip_m:
+            raise FieldValueError(
+                "delivery_deadline_s",
+                f"an aircraft launched at launch_window_s={self.launch_window_s:g} s could fly "
+                f"only {latest_trip_m:.0f} m by then, less than min_trip_m={self.min_trip_m:g}",
+            )
+
+    @property
+    def launch_rules(self) -> LaunchRules:
+        return LaunchRules(
+            self.half_width_m,
+            self.depots_enu_m,
+            self.launch_interval_s,
+            self.launch_window_s,
+            self.min_launch_interval_s,
+            self.pad_spacing_m,
+            self.max_pad_rings,
+            self.pad_margin_m,
+            self.pad_reuse_s,
+        )
 
 
 def generate(base: Scenario, n_aircraft: int, seed: int, family: FamilyConfig) -> Scenario:
     """Scenario ``seed`` of the family with ``n_aircraft`` benign aircraft (and a spoofer)."""
-    if n_aircraft < 1:
-        raise ValueError(f"need at least one aircraft, got {n_aircraft}")
+    launches = launch_schedule(n_aircraft, family.launch_rules)
     draw = rng.stream(seed, "scenario")
-    aircraft = tuple(_aircraft(k, draw, family) for k in range(n_aircraft))
+    aircraft = tuple(_aircraft(k, launch, draw, family) for k, launch in enumerate(launches))
     wanted = family.adversaries.resolved()
     name = f"family-n{n_aircraft}-s{seed}"
     if wanted.is_default:
@@ -186,45 +228,46 @@ def _nominal_flight(a: AircraftConfig, t_s: np.ndarray, family: FamilyConfig) ->
     return np.column_stack([xy, up_m])
 
 
-def _aircraft(k: int, draw: np.random.Generator, family: FamilyConfig) -> AircraftConfig:
-    n_depots = len(family.depots_enu_m)
-    depot = np.array(family.depots_enu_m[k % n_depots])
-    slot = k // n_depots
-    start = depot + _pad_offset(slot, family.pad_spacing_m)
+def _aircraft(
+    k: int, launch: Launch, draw: np.random.Generator, family: FamilyConfig
+) -> AircraftConfig:
+    depot = np.array(family.depots_enu_m[launch.depot_index])
+    pad = np.array(launch.pad_enu_m)
     # A fixed number of draws per aircraft keeps seeds matched across densities.
     u = draw.random(65)
-    goal = _delivery_site(u[:-1], depot, family)
+    flying_s = family.delivery_deadline_s - launch.departure_s - family.nominal_takeoff_s
+    goal = _delivery_site(u[:-1], depot, pad, flying_s * family.nominal_speed_m_s, family)
     alt = family.cruise_alts_m[int(u[-1] * len(family.cruise_alts_m))]
     return AircraftConfig(
         serial=cta2063_serial(SERIAL_MAKER, f"{k + 1:08d}"),
-        start_enu_m=_vec(start),
+        start_enu_m=_vec(pad),
         goal_enu_m=_vec(goal),
         cruise_alt_m=alt,
-        departure_s=slot * family.launch_interval_s,
+        departure_s=launch.departure_s,
     )
 
 
-def _pad_offset(slot: int, spacing_m: float) -> np.ndarray:
-    """Offset of pad ``slot`` from its depot: 0 at the centre, then rings of 6 q pads."""
-    ring, index = 0, slot
-    while index > 0:
-        ring += 1
-        if index <= 6 * ring:
-            angle = 2 * math.pi * (index - 1) / (6 * ring)
-            return ring * spacing_m * np.array([math.cos(angle), math.sin(angle), 0.0])
-        index -= 6 * ring
-    return np.zeros(3)
-
-
-def _delivery_site(uniforms: np.ndarray, depot: np.ndarray, family: FamilyConfig) -> np.ndarray:
-    """Rejection-sample a site far enough from the depot (deterministic given uniforms)."""
+def _delivery_site(
+    uniforms: np.ndarray,
+    depot: np.ndarray,
+    pad: np.ndarray,
+    max_from_pad_m: float,
+    family: FamilyConfig,
+) -> np.ndarray:
+    """Rejection-sample a site ``min_trip_m``..``max_trip_m`` from the depot and at most
+    ``max_from_pad_m`` from the pad (deterministic given uniforms)."""
     w = family.half_width_m * 0.9
     for ux, uy in uniforms.reshape(-1, 2):
         site = np.array([(2 * ux - 1) * w, (2 * uy - 1) * w, 0.0])
-        if family.min_trip_m <= np.hypot(*(site - depot)[:2]) <= family.max_trip_m:
+        from_depot_m = np.hypot(*(site - depot)[:2])
+        if (
+            family.min_trip_m <= from_depot_m <= family.max_trip_m
+            and np.hypot(*(site - pad)[:2]) <= max_from_pad_m
+        ):
             return site
     toward_centre = -depot / max(float(np.linalg.norm(depot)), 1e-9)
-    return depot + toward_centre * 0.5 * (family.min_trip_m + family.max_trip_m)
+    trip_m = min(0.5 * (family.min_trip_m + family.max_trip_m), max_from_pad_m)
+    return depot + toward_centre * trip_m
 
 
 def _spoofer(draw: np.random.Generator, family: FamilyConfig) -> SpooferConfig:

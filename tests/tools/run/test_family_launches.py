@@ -1,0 +1,106 @@
+"""The family's launch schedule: the paper's draws kept, every launch in the window, pads in
+the area and never reused too soon, deliveries a late launch can finish, refusals that name
+the keys to change."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from ridsafe.tools.run.family_launches import FamilyDrawError, launch_schedule, pad_offsets_enu_m
+from ridsafe.tools.run.scenario import load_scenario_file
+from ridsafe.tools.run.scenario_family import FamilyConfig, generate
+
+PAPER = load_scenario_file("configs/paper.yaml")
+CITY = load_scenario_file("configs/city.yaml")
+assert PAPER.family is not None and CITY.family is not None
+PAPER_FAMILY, CITY_FAMILY = PAPER.family, CITY.family
+
+
+def _ring_pad(depot: tuple[float, float, float], slot: int, spacing_m: float) -> np.ndarray:
+    """The paper's pad layout written out (slots 0-18): the centre, then rings of 6 and 12."""
+    if slot == 0:
+        return np.array(depot)
+    ring = 1 if slot <= 6 else 2
+    index = slot - 1 if slot <= 6 else slot - 7
+    angle = 2 * math.pi * index / (6 * ring)
+    return np.array(depot) + ring * spacing_m * np.array([math.cos(angle), math.sin(angle), 0.0])
+
+
+def test_the_paper_densities_launch_as_they_always_did() -> None:
+    """Up to 16 aircraft: 4 s apart from the ring pads, nothing adapted."""
+    launches = launch_schedule(16, PAPER_FAMILY.launch_rules)
+    for k, launch in enumerate(launches):
+        depot = PAPER_FAMILY.depots_enu_m[k % 3]
+        assert launch.depot_index == k % 3
+        assert launch.departure_s == (k // 3) * 4.0
+        expected = _ring_pad(depot, k // 3, PAPER_FAMILY.pad_spacing_m)
+        np.testing.assert_allclose(launch.pad_enu_m, expected, atol=1e-9)
+
+
+@pytest.mark.parametrize("n_aircraft", [1, 16, 24, 32, 48, 64, 96])
+def test_every_launch_in_the_window_from_a_pad_inside_the_area(n_aircraft: int) -> None:
+    family = PAPER_FAMILY
+    launches = launch_schedule(n_aircraft, family.launch_rules)
+    assert max(launch.departure_s for launch in launches) <= family.launch_window_s + 1e-9
+    limit_m = family.half_width_m - family.pad_margin_m
+    for launch in launches:
+        assert max(abs(launch.pad_enu_m[0]), abs(launch.pad_enu_m[1])) <= limit_m
+    by_pad: dict[tuple[float, float, float], list[float]] = {}
+    for launch in launches:
+        by_pad.setdefault(launch.pad_enu_m, []).append(launch.departure_s)
+    for times in by_pad.values():
+        assert np.all(np.diff(sorted(times)) >= family.pad_reuse_s)
+
+
+def test_late_launches_get_deliveries_a_nominal_flight_finishes_by_the_deadline() -> None:
+    family = PAPER_FAMILY
+    for seed in range(5):
+        for a in generate(PAPER.scenario, 64, seed, family).aircraft:
+            trip_m = math.dist(a.start_enu_m[:2], a.goal_enu_m[:2])
+            arrival_s = a.departure_s + family.nominal_takeoff_s + trip_m / 8.0
+            assert arrival_s <= family.delivery_deadline_s + 1e-6
+
+
+def test_too_many_aircraft_per_depot_is_refused_naming_the_flag_and_keys() -> None:
+    with pytest.raises(FamilyDrawError) as error:
+        generate(PAPER.scenario, 128, 0, PAPER_FAMILY)
+    text = str(error.value)
+    assert "--aircraft 128" in text and "family.min_launch_interval_s" in text
+    assert "family.depots_enu_m" in text
+
+
+def test_a_pad_reused_too_soon_is_refused() -> None:
+    family = dataclasses.replace(PAPER_FAMILY, max_pad_rings=0)  # one pad per depot
+    with pytest.raises(FamilyDrawError, match=r"family\.pad_reuse_s"):
+        launch_schedule(48, family.launch_rules)  # 16 launches 2.7 s apart from one pad
+
+
+def test_a_depot_outside_the_area_is_refused() -> None:
+    family = dataclasses.replace(PAPER_FAMILY, depots_enu_m=((900.0, 0.0, 0.0),))
+    with pytest.raises(FamilyDrawError, match=r"depots_enu_m\[0\]"):
+        launch_schedule(4, family.launch_rules)
+
+
+def test_pads_of_a_depot_at_the_edge_stay_inside() -> None:
+    rules = PAPER_FAMILY.launch_rules
+    pads = pad_offsets_enu_m((0.0, 400.0, 0.0), rules)
+    assert len(pads) < 19  # the northern ring-2 pads would stand beyond the edge
+    assert all(p[1] <= rules.half_width_m - rules.pad_margin_m for p in pads)
+
+
+def test_a_deadline_no_late_launch_can_meet_is_a_config_error() -> None:
+    with pytest.raises(ValueError, match="delivery_deadline_s"):
+        FamilyConfig(delivery_deadline_s=60.0)
+
+
+def test_the_city_draws_128_aircraft_and_several_spoofers() -> None:
+    scenario = generate(CITY.scenario, 128, 0, CITY_FAMILY)
+    assert len(scenario.aircraft) == 128
+    assert len(scenario.all_spoofers) >= 3
+    assert max(a.departure_s for a in scenario.aircraft) <= 40.0
+    half = CITY_FAMILY.half_width_m
+    assert all(max(abs(a.start_enu_m[0]), abs(a.start_enu_m[1])) <= half for a in scenario.aircraft)
