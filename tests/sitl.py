@@ -12,7 +12,6 @@ import lzma
 import os
 import shutil
 import subprocess
-import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -20,7 +19,6 @@ from pathlib import Path
 import pytest
 
 os.environ.setdefault("MAVLINK20", "1")
-from pymavlink import mavutil
 
 ROOT = Path(__file__).resolve().parents[1]
 SITL_ENV = "RIDSAFE_SITL_DIR"
@@ -83,29 +81,3 @@ def arducopter(
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.wait()
-
-
-# Texts ArduCopter sends once initialised (from here on a mode a client sets stays set); the
-# first, "ArduPilot Ready", often goes out before a link has been heard from, and is lost.
-READY_TEXTS = ("ArduPilot Ready", "EKF3 IMU0 initialised", "AHRS: EKF3 active")
-
-
-def wait_until_initialised(gcs_port: int, timeout_s: float = 120.0) -> None:
-    """Listen on the SITL's ground-station port until it says it has finished initialising.
-
-    A client that sets GUIDED before this sees it accepted, and then replaced by the initial
-    mode (STABILIZE) when ArduCopter finishes starting up."""
-    conn = mavutil.mavlink_connection(f"udpin:127.0.0.1:{gcs_port}", source_system=254)
-    gcs = mavutil.mavlink
-    try:
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            # ArduPilot sends STATUSTEXT only on links it has heard from; a udpin link
-            # sends nothing before the SITL's first datagram
-            conn.mav.heartbeat_send(gcs.MAV_TYPE_GCS, gcs.MAV_AUTOPILOT_INVALID, 0, 0, 0)
-            msg = conn.recv_match(type="STATUSTEXT", blocking=True, timeout=0.5)
-            if msg is not None and msg.text.startswith(READY_TEXTS):
-                return
-    finally:
-        conn.close()
-    raise TimeoutError(f"none of {READY_TEXTS} from the SITL within {timeout_s:g} s")

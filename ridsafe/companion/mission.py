@@ -5,6 +5,7 @@
     WAIT_HEARTBEAT -> REQUEST_STREAMS -> WAIT_DEPARTURE -> SET_GUIDED -> ARM -> TAKEOFF
         -> CLIMB -> CRUISE -> ARRIVED -> HOVER | DESCEND -> LAND -> DONE
                                                           (any refused step -> FAILED)
+    ARM | TAKEOFF -> SET_GUIDED when the autopilot reports a mode other than GUIDED
 
 - ``PHASE_COMMANDS``: the COMMAND_LONGs a phase sends on entry, one at a time (ArduPilot
   answers commands in order and its COMMAND_ACK names only the command id).
@@ -18,6 +19,12 @@ one (any result but ACCEPTED / IN_PROGRESS) is logged with its MAV_RESULT and re
 the same delay; after ``1 + command_retries`` attempts a required command fails the mission,
 an optional one (the telemetry requests: a real autopilot may not stream everything) is
 skipped. While the autopilot link is down nothing is sent and no attempt is used up.
+
+A mode that was accepted may not stay: a real ArduCopter that finishes starting up after
+GUIDED was set puts itself back in its initial mode (STABILIZE), where it still arms but
+refuses the take-off. So in ARM and TAKEOFF a HEARTBEAT that reports another mode sends the
+mission back to SET_GUIDED, at most ``command_attempts`` times per flight (an autopilot that
+keeps leaving GUIDED then fails the take-off, and the mission, as before).
 
 The mission reports what happened as ``MissionEvent`` values; the companion logs them.
 """
@@ -86,6 +93,7 @@ class Trigger(enum.Enum):
     SETTLED = "hovering at the goal"
     LOW_ENOUGH = "low enough to hand the landing to the autopilot"
     DISARMED = "the autopilot reports disarmed"
+    MODE_LOST = "the autopilot reports a mode other than GUIDED"
 
 
 @quick_init
@@ -93,8 +101,9 @@ class Trigger(enum.Enum):
 class FlightStatus:
     """What the mission needs to know of the vehicle at one step (None: not known yet).
 
-    ``heartbeat_s``: companion time of the latest autopilot HEARTBEAT; ``altitude_m``: above
-    home; ``goal_*``: horizontal distance and |altitude difference| to the goal.
+    ``heartbeat_s``: companion time of the latest autopilot HEARTBEAT, ``custom_mode`` the
+    ArduCopter mode number it reports; ``altitude_m``: above home; ``goal_*``: horizontal
+    distance and |altitude difference| to the goal.
     """
 
     link_up: bool = False
@@ -106,6 +115,7 @@ class FlightStatus:
     speed_m_s: float | None = None
     departure_due: bool = True
     pad_clear: bool = True  # nothing covers the take-off / delivery pad (pad_clearance.py)
+    custom_mode: int | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -184,6 +194,16 @@ def _disarmed(f: FlightStatus, c: CompanionConfig, entered_s: float) -> bool:
     return f.heartbeat_s is not None and f.heartbeat_s > entered_s and not f.armed
 
 
+def _mode_lost(f: FlightStatus, c: CompanionConfig, entered_s: float) -> bool:
+    """A HEARTBEAT heard after entering the phase reports a mode other than GUIDED."""
+    return (
+        f.heartbeat_s is not None
+        and f.heartbeat_s > entered_s
+        and f.custom_mode is not None
+        and f.custom_mode != CopterMode.GUIDED
+    )
+
+
 def _at_takeoff_alt(f: FlightStatus, c: CompanionConfig, entered_s: float) -> bool:
     return f.altitude_m is not None and f.altitude_m >= c.takeoff_alt_m - c.climb_tolerance_m
 
@@ -215,7 +235,8 @@ PHASE_CONDITIONS: dict[Phase, tuple[tuple[Trigger, Condition], ...]] = {
     Phase.WAIT_DEPARTURE: (
         (Trigger.DEPARTURE_TIME, lambda f, c, t: f.departure_due and f.pad_clear),
     ),
-    Phase.TAKEOFF: ((Trigger.AIRBORNE, _airborne),),
+    Phase.ARM: ((Trigger.MODE_LOST, _mode_lost),),
+    Phase.TAKEOFF: ((Trigger.AIRBORNE, _airborne), (Trigger.MODE_LOST, _mode_lost)),
     Phase.CLIMB: ((Trigger.DISARMED, _disarmed), (Trigger.CLIMBED, _at_takeoff_alt)),
     Phase.CRUISE: ((Trigger.DISARMED, _disarmed), (Trigger.GOAL_REACHED, _goal_reached)),
     Phase.ARRIVED: (
@@ -235,6 +256,8 @@ TRANSITIONS: dict[tuple[Phase, Trigger], Phase] = {
     (Phase.SET_GUIDED, Trigger.COMMANDS_FAILED): Phase.FAILED,
     (Phase.ARM, Trigger.COMMANDS_DONE): Phase.TAKEOFF,
     (Phase.ARM, Trigger.COMMANDS_FAILED): Phase.FAILED,
+    (Phase.ARM, Trigger.MODE_LOST): Phase.SET_GUIDED,
+    (Phase.TAKEOFF, Trigger.MODE_LOST): Phase.SET_GUIDED,
     (Phase.TAKEOFF, Trigger.COMMANDS_DONE): Phase.CLIMB,
     (Phase.TAKEOFF, Trigger.AIRBORNE): Phase.CRUISE,  # a companion restarted in flight
     (Phase.TAKEOFF, Trigger.COMMANDS_FAILED): Phase.FAILED,
@@ -415,6 +438,7 @@ class Mission:
         self.entered_s = 0.0
         self._events: list[MissionEvent] = []
         self.commands = CommandQueue(config, sysid, self._emit, target_component)
+        self.mode_reasserts = 0  # MODE_LOST transitions taken this flight
 
     def _emit(self, event: MissionEvent) -> None:
         self._events.append(event)
@@ -440,6 +464,8 @@ class Mission:
 
     def _condition(self, status: FlightStatus) -> Trigger | None:
         for trigger, predicate in PHASE_CONDITIONS.get(self.phase, ()):
+            if trigger is Trigger.MODE_LOST and self.mode_reasserts >= self.config.command_attempts:
+                continue  # bounded: the take-off's own refusal then fails the mission
             if predicate(status, self.config, self.entered_s):
                 return trigger
         return None
@@ -456,6 +482,8 @@ class Mission:
                 {"from": self.phase.value, "to": target.value, "trigger": trigger.name},
             )
         )
+        if trigger is Trigger.MODE_LOST:
+            self.mode_reasserts += 1
         self.phase = target
         self.entered_s = now_s
         self.commands.load(PHASE_COMMANDS[target](self.config) if target in PHASE_COMMANDS else ())

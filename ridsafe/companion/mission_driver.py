@@ -141,6 +141,7 @@ class MissionDriver:
             pad_clear=self._pad_clear(departure_due),
             heartbeat_s=self.own.heartbeat_s,
             armed=self.own.armed,
+            custom_mode=None if self.own.heartbeat is None else self.own.heartbeat.custom_mode,
             altitude_m=None if gpi is None else gpi.relative_alt_m,
             goal_distance_h_m=distance,
             goal_alt_error_m=alt_error,

@@ -314,3 +314,47 @@ def test_waits_on_the_ground_until_its_departure_time() -> None:
         mission.step(t, FlightStatus(link_up=True, heartbeat_s=t - 0.1, departure_due=due))
         phases.append(mission.phase)
     assert phases == [Phase.WAIT_DEPARTURE, Phase.SET_GUIDED]
+
+
+# --- a mode that does not stay ----------------------------------------------------------------
+
+STABILIZE = 0
+
+
+def test_a_mode_dropped_while_arming_or_taking_off_is_set_again() -> None:
+    """A real ArduCopter that finishes starting up after GUIDED was accepted goes back to
+    STABILIZE, where it arms but refuses the take-off: the mission sets GUIDED again."""
+    for phase in (Phase.ARM, Phase.TAKEOFF):
+        mission = _mission_at(phase)
+        mission.entered_s = 0.5
+        sent = mission.step(2.0, replace(UP, heartbeat_s=1.0, custom_mode=STABILIZE))
+        assert mission.phase is Phase.SET_GUIDED, phase
+        assert [(c.command, c.params[1]) for c in sent] == [(MavCmd.DO_SET_MODE, 4.0)]
+        mission.on_ack(2.1, _ack(MavCmd.DO_SET_MODE, MavResult.ACCEPTED))
+        mission.step(2.2, replace(UP, heartbeat_s=1.0, custom_mode=STABILIZE))
+        assert mission.phase is Phase.ARM  # the stale heartbeat predates the new phase
+
+
+def test_guided_or_an_old_heartbeat_changes_nothing() -> None:
+    for status in (
+        replace(UP, heartbeat_s=1.0, custom_mode=4),  # GUIDED
+        replace(UP, heartbeat_s=0.2, custom_mode=STABILIZE),  # heard before the phase began
+        replace(UP, heartbeat_s=1.0),  # mode not known
+    ):
+        mission = _mission_at(Phase.TAKEOFF)
+        mission.entered_s = 0.5
+        mission.step(2.0, status)
+        assert mission.phase is Phase.TAKEOFF, status
+
+
+def test_setting_guided_again_is_bounded_then_the_refused_take_off_fails_the_mission() -> None:
+    config = replace(CompanionConfig(), command_retries=1)
+    mission = _mission_at(Phase.TAKEOFF, config)
+    t = 0.0
+    for _ in range(60):
+        t += 0.25
+        for cmd in mission.step(t, replace(UP, heartbeat_s=t - 0.1, custom_mode=STABILIZE)):
+            result = MavResult.FAILED if cmd.command == MavCmd.NAV_TAKEOFF else MavResult.ACCEPTED
+            mission.on_ack(t, _ack(cmd.command, result))
+    assert mission.mode_reasserts == config.command_attempts
+    assert mission.phase is Phase.FAILED

@@ -13,7 +13,7 @@ import pytest
 
 from ridsafe.common import frames
 from ridsafe.tools.run.scenario import load_scenario_file
-from tests.sitl import ROOT, arducopter, require_sitl, wait_until_initialised
+from tests.sitl import ROOT, arducopter, require_sitl
 
 SPEEDUP = 4.0  # SITL and companion both run 4 sim seconds per wall second
 GCS_PORT, COMPANION_PORT, INSTANCE = 46650, 46660, 7
@@ -28,11 +28,6 @@ def test_companion_flies_the_real_arducopter_from_cold_start_and_exits(tmp_path:
     lat, lon, alt = frames.enu_to_geodetic(loaded.scenario.origin, np.array(aircraft.start_enu_m))
     with arducopter(tmp_path / "sitl", (float(lat), float(lon), float(alt)),
                     GCS_PORT, COMPANION_PORT, INSTANCE, SPEEDUP):  # fmt: skip
-        # Known defect (not yet fixed in the companion): one that sets GUIDED while ArduCopter
-        # is still initialising sees it replaced by STABILIZE, arms there and fails the
-        # take-off. So the companion starts once the SITL is initialised (still ~30 sim s
-        # before it has a position estimate, so its start stays cold).
-        wait_until_initialised(GCS_PORT)
         done = subprocess.run(
             [sys.executable, "-m", "ridsafe.tools.cli", "companion", "--vehicle", "1",
              "--autopilot", f"udpin:127.0.0.1:{COMPANION_PORT}",
@@ -46,6 +41,8 @@ def test_companion_flies_the_real_arducopter_from_cold_start_and_exits(tmp_path:
     assert "command_rejected: arm" in out  # refused at least once and retried (how many
     # times depends on the machine's load; the "waiting_prearm" note after several refusals is
     # tested in tests/companion/test_cold_start.py)
+    # the companion is started at once, so whether ArduCopter's start-up takes GUIDED back
+    # depends on timing; when it does, the mission sets GUIDED again (test_mission.py)
     assert "arrived: within 10 m of the goal" in out
     assert "LAND -> DONE" in out
     assert "companion 1: ended in DONE" in out
