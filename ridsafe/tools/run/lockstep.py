@@ -154,7 +154,13 @@ def run_lockstep(
         recorder = written if live is None else TeeSink((written, live))
         run_records.log_meta(recorder, run_records.run_meta(loaded, "lockstep", planner))
         build_start = time.perf_counter()
-        run = build(loaded, planner, recorder)
+        try:
+            run = build(loaded, planner, recorder)
+        except KeyboardInterrupt:  # while compiling or loading the kernels: nothing flew
+            wall = time.perf_counter() - wall_start
+            reason = "Ctrl-C before the run started"
+            recorder.log(topics.RUN_END, 0.0, run_records.run_end(wall, 0.0, "interrupted", reason))
+            return RunResult("interrupted", reason, wall, 0.0, log_path, wall)
         build_s = time.perf_counter() - build_start
         duration = loaded.scenario.duration_s
         try:

@@ -15,6 +15,7 @@ import pytest
 from ridsafe.common import topics
 from ridsafe.tools.run import live
 from ridsafe.tools.runlog.reader import read_records
+from tests.tools.run.output_watch import OutputWatch, wait_for_text
 
 ROOT = Path(__file__).resolve().parents[3]
 PORTS = [
@@ -67,9 +68,11 @@ def test_a_short_fast_live_run_flies_logs_and_reports(tmp_path: Path) -> None:
 @pytest.mark.udp
 def test_ctrl_c_stops_every_process_and_leaves_a_valid_log(tmp_path: Path) -> None:
     proc = _run(tmp_path / "out", "--speed", "2", "--duration", "600")
-    time.sleep(9.0)
+    watch = OutputWatch(proc)
+    # the sim is flying (its first status line, at 5 sim s), so its log part has records
+    wait_for_text(tmp_path / "out" / "logs" / "sim.log", " armed ", timeout_s=240.0)
     proc.send_signal(signal.SIGINT)
-    output, _ = proc.communicate(timeout=60)
+    output = watch.finish(timeout_s=60)
     assert proc.returncode == 1, output
     records = list(read_records(tmp_path / "out" / "run.mcap"))
     end = [r for t, _, r in records if t == topics.RUN_END]

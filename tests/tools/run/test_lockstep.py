@@ -7,7 +7,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -17,6 +16,7 @@ from ridsafe.tools.analysis.metrics import compute_metrics
 from ridsafe.tools.run.lockstep import run_lockstep
 from ridsafe.tools.run.scenario import ScenarioFile, load_scenario_file
 from ridsafe.tools.runlog.reader import read_records
+from tests.tools.run.output_watch import FLYING, OutputWatch
 
 ROOT = Path(__file__).resolve().parents[3]
 TIMING_KEYS = {"wall_clock_s", "gcs_compute_s", "gcs_update_p99_ms", "planner_decision_p99_ms"}
@@ -107,9 +107,10 @@ def test_ctrl_c_ends_the_run_and_its_recorder_with_a_valid_log(tmp_path: Path) -
         argv, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
         start_new_session=True,
     )  # fmt: skip
-    time.sleep(6.0)
+    watch = OutputWatch(proc)
+    watch.wait_for(FLYING, timeout_s=240.0)  # kernels compiled or loaded, the clock running
     os.killpg(proc.pid, signal.SIGINT)
-    output, _ = proc.communicate(timeout=60)
+    output = watch.finish(timeout_s=60)
     assert proc.returncode == 1, output
     records = list(read_records(out / "run.mcap"))
     (end,) = [r for t, _, r in records if t == topics.RUN_END]
