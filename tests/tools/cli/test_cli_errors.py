@@ -49,6 +49,8 @@ def test_a_bad_number_is_refused_naming_its_flag(
         (["run", "--set", "scenario.duration_s=-1"], "override: scenario.duration_s: expected 0 <"),
         (["run", "--set", "scenario.nope=1"], "override: scenario.nope: unknown key"),
         (["companion", "--vehicle", "0"], "--vehicle '0': no benign aircraft"),
+        (["run", "--set", "run.gcs_connect=udpin:127.0.0.1:5"], "run.gcs_connect: expected udpout"),
+        (["run", "--set", "run.gcs_listen=nope"], "run.gcs_listen: connection string 'nope'"),
     ],
 )
 def test_a_bad_value_after_parsing_names_its_key_or_flag(
