@@ -24,10 +24,10 @@ a ground station's 14550: what arrives from ``host:port`` is handed to the core 
 address (a malformed address is counted in ``unsent_bad_peer`` and dropped). Plain
 ``"name"`` still means "the last peer heard".
 
-Before its loop the runner moves every object that exists then (modules, compiled kernels,
-the built core) out of the garbage collector's reach (``freeze_startup_objects``): they live
-for the whole run, and a full collection would otherwise walk them all inside whichever
-``handle`` call it interrupts (over 100 ms in a fuzz campaign; issue 14).
+An app calls ``freeze_startup_objects`` once its core is built, before the run's start
+instant: every object that exists then (modules, compiled kernels, the core) lives for the
+whole run, and a full collection would otherwise walk them all inside whichever ``handle``
+call it interrupts (over 100 ms in a fuzz campaign; issue 14).
 """
 
 from __future__ import annotations
@@ -128,7 +128,6 @@ class UdpRunner:
         on_tick: Callable[[float], None] | None = None,
     ) -> float:
         """Loop until stopped or ``until_s``; returns the last sim time handled."""
-        freeze_startup_objects()
         now_s = 0.0
         next_tick_s = 0.0
         while not self._stopping and (until_s is None or now_s < until_s):

@@ -6,8 +6,8 @@
 2. **Fuzz** (``fuzz_core``): with the run paused at ``warm_s``, the target core (``sim``,
    ``companion``, ``gcs``) is fed ``n`` mutated datagrams (``mutate.Mutator``; signed with
    the run's key on keyed links), one ``handle`` call each at the paused time (the objects
-   built so far frozen out of the garbage collector's reach first, as ``UdpRunner`` does
-   before its loop in every app); what it sends
+   built so far frozen out of the garbage collector's reach first, as every app does before
+   its run starts); what it sends
    is dropped (as if lost). Counted: crashes (an exception out of ``handle``), calls over
    ``SLOW_CALL_MS`` (100 ms) and over ``HANG_CALL_MS`` (1 s) of the thread's CPU time, the
    slowest call; wall times beside them (``_call`` says why CPU time judges).
@@ -142,7 +142,7 @@ class FuzzRun:
         if not pool:
             raise ValueError(f"no datagrams captured for {name}: warm up longer")
         mutator, report, now_s = Mutator(rng), FuzzReport(target), self.run.t_s
-        freeze_startup_objects()  # as an app's runner does before its loop
+        freeze_startup_objects()  # as every app does before its run starts
         start = time.perf_counter()
         inbound: Datagrams = []
         for k in range(1, n + 1):
