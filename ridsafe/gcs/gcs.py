@@ -230,6 +230,8 @@ class Gcs:
         out.update(self.shell.counters.as_dict())
         out.update(self.shell.edge_counters())
         out.update(dataclasses.asdict(self.counters))
+        out["replayed"] = self.replay.replayed  # of link_rejected_signature: old stamps
+        out["stale_new_stream"] = self.replay.stale_new_stream
         out["peers_known"] = len(self._peers)
         out["peers_live"] = len(self.live_peers)
         return out

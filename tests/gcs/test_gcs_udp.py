@@ -192,8 +192,8 @@ def test_gcs_command_runs_signed_and_logs(
 @pytest.mark.parametrize(
     ("extra", "message"),
     [
-        (["--listen", "udpout:127.0.0.1:9"], "expected udpin"),
-        # --speed 0: refused while parsing, naming the flag (tests/tools/cli/test_cli_errors.py)
+        # --speed 0 and --listen udpout:...: refused while parsing, naming the flag
+        # (tests/tools/cli/test_cli_errors.py)
         (["--signing-key", "EMPTY"], "signing key file is empty"),
         (["--set", "scenario.seed=-1"], "seed"),
     ],

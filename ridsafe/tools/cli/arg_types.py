@@ -1,7 +1,9 @@
 """Argument types that check numbers where they are parsed, so every error names its flag.
 
 argparse reports a type's ``ArgumentTypeError`` as ``argument --duration: must be > 0, got
--5``, before any file is read or process started."""
+-5``, before any file is read or process started. The same holds for the other values a
+flag carries: connection strings, integer lists, seed ranges (each type checks the text and
+returns it unchanged, so what the command does with it is as before)."""
 
 from __future__ import annotations
 
@@ -9,7 +11,19 @@ import argparse
 import math
 from collections.abc import Callable
 
-__all__ = ["finite_float", "non_negative_int", "positive_float", "positive_int"]
+from ridsafe.common.errors import ConnectionStringError
+from ridsafe.common.udp import parse_connection_string
+from ridsafe.tools.sweep.config import parse_seeds
+
+__all__ = [
+    "connection_string",
+    "finite_float",
+    "int_list",
+    "non_negative_int",
+    "positive_float",
+    "positive_int",
+    "seed_list",
+]
 
 
 def _number(text: str, kind: Callable[[str], float]) -> float:
@@ -46,3 +60,28 @@ def non_negative_int(text: str) -> int:
     if value < 0:
         raise argparse.ArgumentTypeError(f"must be >= 0, got {text}")
     return value
+
+
+def connection_string(text: str) -> str:
+    """A pymavlink-style connection string such as ``udpin:127.0.0.1:14450``, checked."""
+    try:
+        parse_connection_string(text)
+    except ConnectionStringError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
+
+
+def int_list(text: str) -> str:
+    """Comma-separated positive integers such as ``4,8,12``, checked."""
+    for part in text.split(","):
+        positive_int(part.strip())
+    return text
+
+
+def seed_list(text: str) -> str:
+    """Seeds as ``0:30`` (start:stop) or ``0,1,5``, checked."""
+    try:
+        parse_seeds(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text

@@ -36,6 +36,7 @@ from ridsafe.companion.companion import Companion
 from ridsafe.companion.mission import Phase
 from ridsafe.companion.planners import PLANNERS
 from ridsafe.tools.cli import app_args, rid_source
+from ridsafe.tools.cli.arg_types import connection_string, finite_float
 from ridsafe.tools.run import cores, process
 from ridsafe.tools.run.scenario import ScenarioFile
 
@@ -55,9 +56,16 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--vehicle", required=True, help="benign aircraft to fly: 2, 1-4 or 1,3 (1-based)"
     )
     parser.add_argument(
-        "--autopilot", help="autopilot connection (one vehicle only; default: the sim's port)"
+        "--autopilot",
+        type=connection_string,
+        help="autopilot connection (one vehicle only; default: the sim's port)",
     )
-    parser.add_argument("--gcs", default=DEFAULT_GCS_CONNECTION, help="GCS connection string")
+    parser.add_argument(
+        "--gcs",
+        type=connection_string,
+        default=DEFAULT_GCS_CONNECTION,
+        help="GCS connection string",
+    )
     parser.add_argument("--signing-key", type=Path, help="MAVLink 2 signing key for the GCS link")
     parser.add_argument(
         "--autopilot-signing-key", type=Path, help="MAVLink 2 signing key for the autopilot link"
@@ -73,7 +81,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     parser.add_argument(
         "--rid-start-s",
-        type=float,
+        type=finite_float,
         default=0.0,
         help="companion time (s) at which the capture's first record is heard (default 0)",
     )

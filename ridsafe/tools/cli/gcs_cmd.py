@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ridsafe.common.errors import RidsafeError
+from ridsafe.common.errors import ConnectionStringError, RidsafeError
 from ridsafe.common.runner import UdpRunner
 from ridsafe.gcs.app import DEFAULT_LISTEN, listen_spec, make_runner
 from ridsafe.gcs.config import ClockSource
@@ -27,7 +27,10 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     app_args.add_scenario_arguments(parser)
     app_args.add_process_arguments(parser)
     parser.add_argument(
-        "--listen", default=DEFAULT_LISTEN, help=f"udpin:HOST:PORT (default {DEFAULT_LISTEN})"
+        "--listen",
+        type=_listen_text,
+        default=DEFAULT_LISTEN,
+        help=f"udpin:HOST:PORT (default {DEFAULT_LISTEN})",
     )
     parser.add_argument(
         "--signing-key",
@@ -44,6 +47,15 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "the GCS may start before or after them)",
     )
     parser.set_defaults(func=run)
+
+
+def _listen_text(text: str) -> str:
+    """--listen checked where it is parsed, so its error names the flag."""
+    try:
+        listen_spec(text)
+    except ConnectionStringError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
 
 
 def clock_source(args: argparse.Namespace) -> ClockSource:

@@ -29,7 +29,7 @@ from tqdm import tqdm
 
 from ridsafe.common.config import parse_override, parse_yaml
 from ridsafe.common.errors import RidsafeError
-from ridsafe.tools.cli.arg_types import positive_float, positive_int
+from ridsafe.tools.cli.arg_types import int_list, positive_float, positive_int, seed_list
 from ridsafe.tools.run.scenario import check_no_drawn_overrides
 from ridsafe.tools.sweep.config import ParamAxis, ParamValue, SweepConfig
 from ridsafe.tools.sweep.engines import DaskEngine, LocalPoolEngine, default_workers
@@ -59,8 +59,10 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--workers", type=positive_int, help=f"default: every core ({default_workers()})"
     )
     parser.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler (implies dask)")
-    parser.add_argument("--densities", help="benign aircraft per scenario, e.g. 4,8,12,16")
-    parser.add_argument("--seeds", help="e.g. 0:30 (start:stop) or 0,1,5")
+    parser.add_argument(
+        "--densities", type=int_list, help="benign aircraft per scenario, e.g. 4,8,12,16"
+    )
+    parser.add_argument("--seeds", type=seed_list, help="e.g. 0:30 (start:stop) or 0,1,5")
     parser.add_argument("--planners", help="e.g. aware,trust-rid")
     parser.add_argument("--duration", type=positive_float, help="flight time (s) of every run")
     parser.add_argument(

@@ -5,7 +5,9 @@
    endpoint. Nothing is committed: the corpus is made at run time.
 2. **Fuzz** (``fuzz_core``): with the run paused at ``warm_s``, the target core (``sim``,
    ``companion``, ``gcs``) is fed ``n`` mutated datagrams (``mutate.Mutator``; signed with
-   the run's key on keyed links), one ``handle`` call each at the paused time; what it sends
+   the run's key on keyed links), one ``handle`` call each at the paused time (the objects
+   built so far frozen out of the garbage collector's reach first, as every app does before
+   its run starts); what it sends
    is dropped (as if lost). Counted: crashes (an exception out of ``handle``), calls over
    ``SLOW_CALL_MS`` (100 ms) and over ``HANG_CALL_MS`` (1 s) of the thread's CPU time, the
    slowest call; wall times beside them (``_call`` says why CPU time judges).
@@ -26,6 +28,7 @@ from dataclasses import dataclass, field
 
 from ridsafe.common.codec import SigningConfig
 from ridsafe.common.logsink import NullSink
+from ridsafe.common.runner import freeze_startup_objects
 from ridsafe.common.shell import Datagrams, SansIoCore
 from ridsafe.tools.fuzz.mutate import Mutator
 from ridsafe.tools.run import lockstep
@@ -139,6 +142,7 @@ class FuzzRun:
         if not pool:
             raise ValueError(f"no datagrams captured for {name}: warm up longer")
         mutator, report, now_s = Mutator(rng), FuzzReport(target), self.run.t_s
+        freeze_startup_objects()  # as every app does before its run starts
         start = time.perf_counter()
         inbound: Datagrams = []
         for k in range(1, n + 1):

@@ -168,7 +168,7 @@ def children(
         key.chmod(0o600)
         autopilot_signing = ["--autopilot-signing-key", str(key)]
     listen = parse_connection_string(loaded.run.gcs_listen)
-    gcs_out = f"udpout:{listen.host}:{listen.port}"
+    gcs_out = loaded.run.gcs_connect or f"udpout:{listen.host}:{listen.port}"
     parts, logs = out / "parts", out / "logs"
     started = [
         Child("sim", cli_argv("sim", *common, *autopilot_signing,

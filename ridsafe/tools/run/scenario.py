@@ -27,8 +27,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ridsafe.common.config import OVERRIDE_SOURCE, load_config, with_overrides
-from ridsafe.common.errors import ConfigError, FieldValueError
+from ridsafe.common.errors import ConfigError, ConnectionStringError, FieldValueError
 from ridsafe.common.scenario import Scenario, cta2063_serial
+from ridsafe.common.udp import parse_connection_string
 from ridsafe.companion.config import CompanionConfig
 from ridsafe.companion.planner_config import PlannerConfig
 from ridsafe.gcs.config import GcsConfig
@@ -59,6 +60,9 @@ class RunConfig:
     # as ArduPilot offers with a key set; off by default, as on most real aircraft.
     sign_autopilot_links: bool = False
     gcs_listen: str = "udpin:127.0.0.1:14450"
+    # Where a live run's companions send to the GCS (udpout:HOST:PORT); empty: to
+    # gcs_listen's address. Something else in between (a relay, a radio bridge) listens here.
+    gcs_connect: str = ""
     # The log's derived Foxglove channels (3D scene of the aircraft and regions, map fixes),
     # next to the records: about half of a log's bytes. A sweep leaves them out by default.
     foxglove_channels: bool = True
@@ -67,6 +71,19 @@ class RunConfig:
         for name in ("lockstep_tick_s", "live_tick_s"):
             if not 0.001 <= getattr(self, name) <= 0.1:
                 raise FieldValueError(name, f"expected 0.001..0.1 s, got {getattr(self, name)}")
+        _check_connection("gcs_listen", self.gcs_listen, listens=True)
+        if self.gcs_connect:
+            _check_connection("gcs_connect", self.gcs_connect, listens=False)
+
+
+def _check_connection(name: str, text: str, listens: bool) -> None:
+    try:
+        spec = parse_connection_string(text)
+    except ConnectionStringError as exc:
+        raise FieldValueError(name, str(exc)) from None
+    if spec.mode.listens is not listens:
+        expected = "udpin" if listens else "udpout"
+        raise FieldValueError(name, f"expected {expected}:HOST:PORT, got {text!r}")
 
 
 @dataclass(frozen=True)
