@@ -96,3 +96,11 @@ def _fits_all(
         if _distance_to_segment_m(hotspot, starts[i], starts[j]) > corridor_m:
             return False
     return True
+
+
+def test_paper_like_ours_flies_the_same_scenario_with_default_methods() -> None:
+    ours = load_scenario_file("configs/paper_like_ours.yaml")
+    assert dataclasses.replace(ours.scenario, name=PAPER_LIKE.scenario.name) == PAPER_LIKE.scenario
+    assert ours.depotcity == PAPER_LIKE.depotcity
+    assert ours.pipeline == load_scenario_file().pipeline
+    assert ours.planner == load_scenario_file().planner
