@@ -14,6 +14,8 @@ sized to N aircraft (:func:`ridsafe.tools.run.scenario.with_aircraft`):
   stage, then the same with ``corridor_m[1]``, then ``fallback_attempts`` shuffles needing only
   ``g[i] != i``, and last the rotation ``g[i] = i + 1 mod N``. The generator is the same and
   is drawn in the same order as theirs, so seed s here is their seed s (the same goals).
+  With 8 or more aircraft the two constrained stages almost never succeed: in effect their
+  goals are a random derangement (docs/paper_mode.md, "Scenario rules").
 - **Spoofer offset by N** (their INI): the offset its class claims depends on the scenario;
   ``spoofer_offsets_enu_m`` lists ``[N, east, north, up]`` rows, the row of N (if any)
   replacing ``scenario.spoofer.offset_enu_m``.
