@@ -6,6 +6,7 @@ import dataclasses
 import math
 import random
 
+from ridsafe.common.scenario import Scenario
 from ridsafe.tools.run.depotcity import (
     DepotCityConfig,
     _distance_to_segment_m,
@@ -17,7 +18,7 @@ PAPER_LIKE = load_scenario_file("configs/paper_like.yaml")
 CFG = DepotCityConfig()
 
 
-def _sized(n: int, seed: int):  # type: ignore[no-untyped-def]
+def _sized(n: int, seed: int) -> Scenario:
     loaded = dataclasses.replace(
         PAPER_LIKE, scenario=dataclasses.replace(PAPER_LIKE.scenario, seed=seed)
     )
@@ -43,8 +44,12 @@ def test_paper_like_reassigns_goals_as_a_constrained_derangement_per_seed() -> N
 
 
 def test_spoofer_offset_follows_the_number_of_aircraft() -> None:
-    assert _sized(8, 0).spoofer.offset_enu_m == (0.0, 0.0, 50.0)  # type: ignore[union-attr]
-    assert _sized(16, 0).spoofer.offset_enu_m == (100.0, 100.0, 50.0)  # type: ignore[union-attr]
+    offsets = {}
+    for n in (8, 16):
+        spoofer = _sized(n, 0).spoofer
+        assert spoofer is not None
+        offsets[n] = spoofer.offset_enu_m
+    assert offsets == {8: (0.0, 0.0, 50.0), 16: (100.0, 100.0, 50.0)}
 
 
 def test_permutation_is_the_first_shuffle_that_fits_in_stage_order() -> None:
