@@ -35,6 +35,7 @@ from ridsafe.companion.planner_config import PlannerConfig
 from ridsafe.gcs.config import GcsConfig
 from ridsafe.gcs.pipeline_config import PipelineConfig
 from ridsafe.sim_backend.config import SimConfig
+from ridsafe.tools.run.depotcity import DepotCityConfig, apply_depotcity
 from ridsafe.tools.run.scenario_family import FamilyConfig, generate
 from ridsafe.tools.sweep.config import SweepConfig
 
@@ -96,6 +97,8 @@ class ScenarioFile:
     pipeline: PipelineConfig = field(default_factory=PipelineConfig)
     run: RunConfig = field(default_factory=RunConfig)
     family: FamilyConfig | None = None
+    # The authors' per-seed goal reassignment and per-N spoofer offset (tools/run/depotcity.py).
+    depotcity: DepotCityConfig | None = None
     sweep: SweepConfig | None = None  # the experiment matrix of ``ridsafe sweep``
 
 
@@ -158,7 +161,10 @@ def with_aircraft(
     of ``scenario.aircraft`` is an error: never silently dropped."""
     scenario = loaded.scenario
     if loaded.family is None:
-        return dataclasses.replace(loaded, scenario=rescale_aircraft(scenario, count))
+        scenario = rescale_aircraft(scenario, count)
+        if loaded.depotcity is not None:
+            scenario = apply_depotcity(scenario, loaded.depotcity)
+        return dataclasses.replace(loaded, scenario=scenario)
     scenario = generate(scenario, count, scenario.seed, loaded.family)
     drawn = {k: v for k, v in (overrides or {}).items() if _under(k, FAMILY_DRAWN_KEYS)}
     for key in overrides or {}:
