@@ -28,6 +28,7 @@ import numpy as np
 
 from ridsafe.gcs.calibration.channel_fit import ChannelEstimate, fit_channel
 from ridsafe.gcs.calibration.cooperative import CooperativeLabeller
+from ridsafe.gcs.calibration.review import CalibratedReview
 from ridsafe.gcs.pipeline import EstimationPipeline
 from ridsafe.gcs.pipeline_api import CycleOutput, GcsPipeline, ObservedClaim, readonly
 from ridsafe.gcs.pipeline_config import PipelineConfig
@@ -35,6 +36,23 @@ from ridsafe.gcs.pipeline_config import PipelineConfig
 logger = logging.getLogger(__name__)
 
 __all__ = ["CalibratingPipeline", "make_pipeline", "to_free_space"]
+
+
+def airborne_receptions(claim: ObservedClaim, min_height_m: float) -> ObservedClaim:
+    """The claim with only the receptions of receivers at least ``min_height_m`` above the
+    ground (ENU up; flat ground at the origin's height). 0 keeps every reception."""
+    if min_height_m <= 0.0:
+        return claim
+    keep = claim.rx_p_enu_m[:, 2] >= min_height_m
+    if bool(keep.all()):
+        return claim
+    return dataclasses.replace(
+        claim,
+        rx_sysid=claim.rx_sysid[keep],
+        rx_p_enu_m=readonly(claim.rx_p_enu_m[keep]),
+        rx_t_s=readonly(claim.rx_t_s[keep]),
+        rssi_dbm=readonly(claim.rssi_dbm[keep]),
+    )
 
 
 def to_free_space(claim: ObservedClaim, estimate: ChannelEstimate) -> ObservedClaim:
@@ -49,6 +67,7 @@ class CalibratingPipeline:
     def __init__(self, config: PipelineConfig) -> None:
         self.config = config
         self.labeller = CooperativeLabeller(config.calibration)
+        self.review = CalibratedReview(config.calibration, self.labeller)
         self.estimate: ChannelEstimate | None = None
         self.inner: EstimationPipeline | None = None
         self._held: deque[ObservedClaim] = deque()
@@ -61,9 +80,22 @@ class CalibratingPipeline:
             if not self._ready(now_s):
                 return CycleOutput()
             self.estimate = self._fit()
-            self.inner = EstimationPipeline(self._calibrated_config(self.estimate))
+            self.inner = EstimationPipeline(self._calibrated_config(self.estimate), self.review)
             claims, self._held = list(self._held), deque()
-        return self.inner.step(now_s, [to_free_space(c, self.estimate) for c in claims])
+        h = self.config.calibration.min_receiver_height_m
+        mapped = [to_free_space(airborne_receptions(c, h), self.estimate) for c in claims]
+        out = self.inner.step(now_s, mapped)
+        self._update_inflation(now_s)
+        return out
+
+    def _update_inflation(self, now_s: float) -> None:
+        """Tracks started from now on localise with the noise the vouched claims show."""
+        if self.inner is None or not self.config.calibration.honest_covariance:
+            return
+        inflation = self.review.localisation_inflation(now_s)
+        self.inner.config = dataclasses.replace(
+            self.inner.config, localisation_noise_inflation=inflation
+        )
 
     @property
     def compute_s(self) -> deque[float]:
