@@ -61,6 +61,11 @@ class CalibrationConfig:
     sigma_floor_db: float = 0.5
     #: Labelled receptions kept (the oldest dropped).
     max_samples: int = 20_000
+    #: Refit the channel (exponent, biases: the RSSI mapping) on the labelled receptions this
+    #: often (s); the noise std the detectors were built with stays, the empirical null and
+    #: the localisation inflation (``review.py``) follow it. 0: fit once. The first fit sees
+    #: aircraft on the ground at their depots, later ones the airborne channel.
+    refit_s: float = 10.0
     #: Claims held while calibrating (seconds of history replayed once calibrated).
     hold_s: float = 10.0
 
@@ -76,6 +81,7 @@ class CalibrationConfig:
             check_positive(name, getattr(self, name))
         check_non_negative("min_time_s", self.min_time_s)
         check_non_negative("hold_s", self.hold_s)
+        check_non_negative("refit_s", self.refit_s)
         check_non_negative("min_receiver_height_m", self.min_receiver_height_m)
         if not 0.0 <= self.max_mismatch_fraction < 0.5:
             raise FieldValueError(

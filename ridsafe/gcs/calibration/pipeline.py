@@ -2,9 +2,11 @@ r"""A GCS pipeline that is not told the channel: it calibrates on its cooperativ
 
 ``CalibratingPipeline`` wraps the estimation pipeline (``gcs/pipeline.py``). Until it has
 ``min_samples`` labelled receptions (``cooperative.py``) and ``min_time_s`` has passed it
-holds the claims (the last ``hold_s`` seconds); then it fits the channel once
-(``channel_fit.py``) and hands the inner pipeline every claim, held ones first, with the
-RSSI mapped onto the free-space model the detectors and localisers assume::
+holds the claims (the last ``hold_s`` seconds); then it fits the channel
+(``channel_fit.py``, again every ``refit_s``: the first fit sees the aircraft on the ground
+at their depots, a different channel from the airborne one) and hands the inner pipeline
+every claim, held ones first, with the RSSI mapped onto the free-space model the detectors
+and localisers assume::
 
     rssi' = (2 / n) (rssi - b_r)
 
@@ -13,8 +15,10 @@ paper's model with a transmit power P'_s the estimators fit anyway, and noise st
 (2/n) sigma: the inner pipeline's ``rssi_sigma_db`` (floored at ``sigma_floor_db``). So the
 detectors' thresholds and the localisers' measurement noise follow the fitted channel;
 ``pipeline.rssi_sigma_db`` is only the starting point that is never used once calibrated.
-The first alert can come no earlier than the calibration (a detection delay measured in
-the report).
+What the fitted model still gets wrong (heavy tails, errors repeated over time and links)
+the alert review measures on the cooperative aircraft (``review.py``): the alert
+thresholds and the localisers' noise follow it. The first alert can come no earlier than
+the calibration (a detection delay measured in the report).
 """
 
 from __future__ import annotations
@@ -71,6 +75,7 @@ class CalibratingPipeline:
         self.estimate: ChannelEstimate | None = None
         self.inner: EstimationPipeline | None = None
         self._held: deque[ObservedClaim] = deque()
+        self._fitted_s = 0.0
 
     def step(self, now_s: float, claims: Sequence[ObservedClaim]) -> CycleOutput:
         for claim in claims:
@@ -79,9 +84,11 @@ class CalibratingPipeline:
             self._hold(claims)
             if not self._ready(now_s):
                 return CycleOutput()
-            self.estimate = self._fit()
+            self.estimate, self._fitted_s = self._fit(), now_s
             self.inner = EstimationPipeline(self._calibrated_config(self.estimate), self.review)
             claims, self._held = list(self._held), deque()
+        elif 0.0 < self.config.calibration.refit_s <= now_s - self._fitted_s:
+            self.estimate, self._fitted_s = self._fit(), now_s
         h = self.config.calibration.min_receiver_height_m
         mapped = [to_free_space(airborne_receptions(c, h), self.estimate) for c in claims]
         out = self.inner.step(now_s, mapped)
