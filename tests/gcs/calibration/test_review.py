@@ -10,7 +10,7 @@ from scipy.special import chdtrc
 from ridsafe.common.messages import RidsafeDetector
 from ridsafe.gcs.calibration.config import CalibrationConfig
 from ridsafe.gcs.calibration.cooperative import CooperativeLabeller
-from ridsafe.gcs.calibration.pipeline import airborne_receptions
+from ridsafe.gcs.calibration.pipeline import CalibratingPipeline, airborne_receptions
 from ridsafe.gcs.calibration.review import CalibratedReview, SlidingMax
 from ridsafe.gcs.pipeline import EstimationPipeline
 from ridsafe.gcs.pipeline_api import DetectorResult, ObservedClaim, readonly
@@ -163,3 +163,21 @@ def test_localisation_sigma_is_the_rssi_sigma_inflated() -> None:
     assert cfg.localisation_sigma_db == pytest.approx(4.0)
     with pytest.raises(ValueError, match="localisation_noise_inflation"):
         PipelineConfig(localisation_noise_inflation=0.5)
+
+
+@pytest.mark.parametrize(("refit_s", "fits"), [(0.0, 1), (8.0, 3)])
+def test_the_channel_is_refit_every_refit_s(refit_s: float, fits: int) -> None:
+    """Synthetic traffic (truthful benign claims): one fit, or one every ``refit_s`` on the
+    growing labelled set; the calibrated pipeline raises no false alert either way."""
+    traffic = make_traffic(Scene(seed=2, n_receivers=8, duration_s=24.0))
+    cal = CalibrationConfig(enabled=True, min_samples=100, refit_s=refit_s)
+    pipeline = CalibratingPipeline(PipelineConfig(calibration=cal))
+    seen: list[int] = []
+    alerted: set[str] = set()
+    for now in sorted(traffic.cycles):
+        out = pipeline.step(now, traffic.cycles[now])
+        alerted |= {a.uas_id for a in out.alert_changes}
+        if pipeline.estimate is not None and pipeline.estimate.n_samples not in seen:
+            seen.append(pipeline.estimate.n_samples)
+    assert len(seen) == fits and seen == sorted(seen)
+    assert alerted <= {SPOOFER_ID}
