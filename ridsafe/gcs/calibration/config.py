@@ -62,9 +62,10 @@ class CalibrationConfig:
     #: Labelled receptions kept (the oldest dropped).
     max_samples: int = 20_000
     #: Refit the channel (exponent, biases: the RSSI mapping) on the labelled receptions this
-    #: often (s); the noise std the detectors were built with stays, the empirical null and
-    #: the localisation inflation (``review.py``) follow it. 0: fit once. The first fit sees
-    #: aircraft on the ground at their depots, later ones the airborne channel.
+    #: often (s) until a track runs (``pipeline.py``); the noise std the detectors were built
+    #: with stays, the empirical null and the localisation inflation (``review.py``) follow
+    #: it. 0: fit once. The first fit sees aircraft on the ground at their depots, later
+    #: ones the airborne channel.
     refit_s: float = 10.0
     #: Claims held while calibrating (seconds of history replayed once calibrated).
     hold_s: float = 10.0
