@@ -42,7 +42,7 @@ from __future__ import annotations
 import logging
 import time
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -148,6 +148,10 @@ def _finite(claim: ObservedClaim) -> bool:
     )
 
 
+#: (claim, its detectors' results) -> the results alerts are decided on
+ResultReview = Callable[[ObservedClaim, tuple[DetectorResult, ...]], tuple[DetectorResult, ...]]
+
+
 class EstimationPipeline:
     """Sans-I/O: state lives here, time comes in as ``now_s``, nothing reads a clock except
     the compute-time measurement. The first construction in a process warms the compiled
@@ -155,7 +159,14 @@ class EstimationPipeline:
 
     _warm = False
 
-    def __init__(self, config: PipelineConfig | None = None) -> None:
+    def __init__(
+        self,
+        config: PipelineConfig | None = None,
+        review: ResultReview | None = None,
+    ) -> None:
+        """``review(claim, results)``: the results the alerts are decided on (default: the
+        detectors' own), e.g. the calibration's (``calibration/review.py``)."""
+        self._review = review
         if not EstimationPipeline._warm:
             warm_up()
             EstimationPipeline._warm = True
@@ -178,7 +189,8 @@ class EstimationPipeline:
         results: list[DetectorResult] = []
         changes: list[AlertChange] = []
         usable = [c for c in self._admit(now_s, claims) if self._usable(c)]
-        for claim, claim_results in zip(usable, self._detect(usable), strict=True):
+        for claim, detected in zip(usable, self._detect(usable), strict=True):
+            claim_results = detected if self._review is None else self._review(claim, detected)
             results.extend(claim_results)
             self._note_suspicion(claim.uas_id, claim_results)
             changes.extend(self._maybe_raise(claim.uas_id, claim.t_s, claim_results))

@@ -29,6 +29,7 @@ Where it gives none, ours, each documented at its field:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -460,6 +461,10 @@ class PipelineConfig:
 
     #: RSSI noise the pipeline assumes (dB), matching the scenario's default shadowing.
     rssi_sigma_db: float = 1.0
+    #: The localisers' RSSI variance is ``rssi_sigma_db^2`` times this (the detectors' is
+    #: not inflated): the error the channel model leaves that repeats over time and links,
+    #: which the calibration measures on the cooperative aircraft (``calibration/``).
+    localisation_noise_inflation: float = 1.0
     #: Which estimator a track runs, by its name in ``localisation/registry.py``: 'rssi_imm'
     #: (ours) or 'nlls_imm' (the paper's NLLS fix -> IMM), or one you registered there.
     estimator: str = DEFAULT_ESTIMATOR
@@ -483,8 +488,20 @@ class PipelineConfig:
     max_claims_per_cycle: int = 24
     max_claim_wait_s: float = 0.5
 
+    @property
+    def localisation_sigma_db(self) -> float:
+        """The RSSI noise std the localisers assume: ``rssi_sigma_db`` inflated."""
+        if self.localisation_noise_inflation == 1.0:
+            return self.rssi_sigma_db
+        return self.rssi_sigma_db * math.sqrt(self.localisation_noise_inflation)
+
     def __post_init__(self) -> None:
         check_positive("rssi_sigma_db", self.rssi_sigma_db)
+        if self.localisation_noise_inflation < 1.0:
+            raise FieldValueError(
+                "localisation_noise_inflation",
+                f"expected >= 1, got {self.localisation_noise_inflation}",
+            )
         check_estimator(self.estimator)
         if self.max_claims_per_cycle < 0:
             raise FieldValueError(

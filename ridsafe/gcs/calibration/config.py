@@ -32,6 +32,25 @@ class CalibrationConfig:
     #: them with the same receiver.
     min_matches: int = 3
     max_mismatch_fraction: float = 0.2
+    #: The cooperative cross-check: a claim of a serial labelled cooperative that lies within
+    #: ``vouch_m`` of where its own aircraft last reported being (from its observation
+    #: reports) is that aircraft telling the truth, so it raises no alert, whatever the
+    #: detectors say of a channel they model imperfectly. A spoofer using the serial but
+    #: claiming elsewhere is not vouched for.
+    cooperative_veto: bool = True
+    vouch_m: float = 30.0
+    #: The empirical null (``review.py``): an unvouched claim alerts only above
+    #: ``null_margin`` times the largest statistic of the vouched claims of the last
+    #: ``null_window_s`` (and above the detector's own threshold).
+    empirical_null: bool = True
+    null_margin: float = 1.25
+    null_window_s: float = 60.0
+    null_min_claims: int = 20
+    #: Inflate the localisers' noise by the vouched claims' MLAT statistics (``review.py``).
+    honest_covariance: bool = True
+    #: Receptions by receivers lower than this (m above the ground) are left out of the fit
+    #: and of detection and localisation (0 keeps them).
+    min_receiver_height_m: float = 0.0
     #: Priors: path-loss exponent N(prior, std^2), each receiver's bias N(0, std^2) (dB).
     exponent_prior: float = 2.0
     exponent_prior_std: float = 1.0
@@ -42,19 +61,29 @@ class CalibrationConfig:
     sigma_floor_db: float = 0.5
     #: Labelled receptions kept (the oldest dropped).
     max_samples: int = 20_000
+    #: Refit the channel (exponent, biases: the RSSI mapping) on the labelled receptions this
+    #: often (s) until a track runs (``pipeline.py``); the noise std the detectors were built
+    #: with stays, the empirical null and the localisation inflation (``review.py``) follow
+    #: it. 0: fit once. The first fit sees aircraft on the ground at their depots, later
+    #: ones the airborne channel.
+    refit_s: float = 10.0
     #: Claims held while calibrating (seconds of history replayed once calibrated).
     hold_s: float = 10.0
 
     def __post_init__(self) -> None:
-        for name in ("min_samples", "min_matches", "max_samples"):
+        for name in ("min_samples", "min_matches", "max_samples", "null_min_claims"):
             if getattr(self, name) < 1:
                 raise FieldValueError(name, f"expected >= 1, got {getattr(self, name)}")
-        for name in ("match_m", "match_age_s", "exponent_prior", "exponent_prior_std"):
+        for name in ("match_m", "match_age_s", "vouch_m", "exponent_prior", "exponent_prior_std"):
+            check_positive(name, getattr(self, name))
+        for name in ("null_window_s", "null_margin"):
             check_positive(name, getattr(self, name))
         for name in ("receiver_bias_prior_std_db", "student_dof", "sigma_floor_db"):
             check_positive(name, getattr(self, name))
         check_non_negative("min_time_s", self.min_time_s)
         check_non_negative("hold_s", self.hold_s)
+        check_non_negative("refit_s", self.refit_s)
+        check_non_negative("min_receiver_height_m", self.min_receiver_height_m)
         if not 0.0 <= self.max_mismatch_fraction < 0.5:
             raise FieldValueError(
                 "max_mismatch_fraction", f"expected 0 <= f < 0.5, got {self.max_mismatch_fraction}"

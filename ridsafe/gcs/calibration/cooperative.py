@@ -13,6 +13,7 @@ the fit it would have to claim a benign aircraft's true position, and then it is
 
 from __future__ import annotations
 
+import dataclasses
 from collections import Counter, deque
 from dataclasses import dataclass, field
 
@@ -52,6 +53,23 @@ class LabelledReceptions:
                 column.popleft()
 
 
+def _airborne(claim: ObservedClaim, min_height_m: float) -> ObservedClaim:
+    """Only receptions with both ends at least ``min_height_m`` up (all when 0 or none)."""
+    if min_height_m <= 0.0:
+        return claim
+    if claim.claimed_p_enu_m[2] < min_height_m:
+        keep = np.zeros(claim.n_receivers, dtype=bool)
+    else:
+        keep = claim.rx_p_enu_m[:, 2] >= min_height_m
+    return dataclasses.replace(
+        claim,
+        rx_sysid=claim.rx_sysid[keep],
+        rx_p_enu_m=claim.rx_p_enu_m[keep],
+        rx_t_s=claim.rx_t_s[keep],
+        rssi_dbm=claim.rssi_dbm[keep],
+    )
+
+
 class CooperativeLabeller:
     """Learns serial -> receiver system id from positions and collects labelled receptions."""
 
@@ -63,18 +81,19 @@ class CooperativeLabeller:
 
     def labels(self) -> dict[str, int]:
         """Serials labelled cooperative, with their receiver system id."""
-        out: dict[str, int] = {}
-        for uas_id, votes in self._votes.items():
-            if not votes:
-                continue
-            sysid, count = votes.most_common(1)[0]
-            total = sum(votes.values())
-            if (
-                count >= self.cfg.min_matches
-                and count >= (1 - self.cfg.max_mismatch_fraction) * total
-            ):
-                out[uas_id] = sysid
-        return out
+        out = {uas_id: self.label_of(uas_id) for uas_id in self._votes}
+        return {uas_id: sysid for uas_id, sysid in out.items() if sysid is not None}
+
+    def label_of(self, uas_id: str) -> int | None:
+        """The receiver system id serial ``uas_id`` is labelled with, if it is cooperative."""
+        votes = self._votes.get(uas_id)
+        if not votes:
+            return None
+        sysid, count = votes.most_common(1)[0]
+        total = sum(votes.values())
+        if count >= self.cfg.min_matches and count >= (1 - self.cfg.max_mismatch_fraction) * total:
+            return sysid
+        return None
 
     def observe(self, claim: ObservedClaim) -> None:
         """Learn from one claim: receivers' own positions, a match vote, maybe samples."""
@@ -86,9 +105,21 @@ class CooperativeLabeller:
         if match is None:
             return
         self._votes.setdefault(claim.uas_id, Counter())[match] += 1
-        if self.labels().get(claim.uas_id) == match:
+        if self.label_of(claim.uas_id) == match:
+            claim = _airborne(claim, self.cfg.min_receiver_height_m)
             distance = np.linalg.norm(claim.rx_p_enu_m - claim.claimed_p_enu_m, axis=1)
             self.samples.add(match, claim.rx_sysid, distance, claim.rssi_dbm)
+
+    def vouches(self, claim: ObservedClaim) -> bool:
+        """Is ``claim`` a labelled cooperative aircraft's, claiming where that aircraft last
+        reported being (within ``vouch_m``)? Such a claim is no spoofer's."""
+        sysid = self.label_of(claim.uas_id)
+        if sysid is None or sysid in claim.rx_sysid.tolist():
+            return False
+        seen = self._rx_seen.get(sysid)
+        if seen is None:
+            return False
+        return float(np.linalg.norm(seen[1] - claim.claimed_p_enu_m)) <= self.cfg.vouch_m
 
     def _match(self, claim: ObservedClaim) -> int | None:
         hearers = set(claim.rx_sysid.tolist())

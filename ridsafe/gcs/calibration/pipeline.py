@@ -2,19 +2,29 @@ r"""A GCS pipeline that is not told the channel: it calibrates on its cooperativ
 
 ``CalibratingPipeline`` wraps the estimation pipeline (``gcs/pipeline.py``). Until it has
 ``min_samples`` labelled receptions (``cooperative.py``) and ``min_time_s`` has passed it
-holds the claims (the last ``hold_s`` seconds); then it fits the channel once
-(``channel_fit.py``) and hands the inner pipeline every claim, held ones first, with the
-RSSI mapped onto the free-space model the detectors and localisers assume::
+holds the claims (the last ``hold_s`` seconds); then it fits the channel
+(``channel_fit.py``, again every ``refit_s``: the first fit sees the aircraft on the ground
+at their depots, a different channel from the airborne one) and hands the inner pipeline
+every claim, held ones first, with the RSSI mapped onto the free-space model the detectors
+and localisers assume::
 
     rssi' = (2 / n) (rssi - b_r)
 
 With rssi = P_s + b_r - 10 n log10 d + e this is rssi' = P'_s - 20 log10 d + (2/n) e, the
-paper's model with a transmit power P'_s the estimators fit anyway, and noise std
-(2/n) sigma: the inner pipeline's ``rssi_sigma_db`` (floored at ``sigma_floor_db``). So the
-detectors' thresholds and the localisers' measurement noise follow the fitted channel;
-``pipeline.rssi_sigma_db`` is only the starting point that is never used once calibrated.
-The first alert can come no earlier than the calibration (a detection delay measured in
-the report).
+paper's model with a transmit power P'_s the estimators fit anyway, and noise std (2/n)
+sigma. The scaling is taken about the fleet's mean level P0 of the first fit (rssi' = P0 +
+(2/n)(rssi - b_r - P0)), so a refit that moves n barely moves the P'_s a track has converged
+on (scaled about 0, a refit from n = 2.9 to 3.0 moves a P of -20 dBm by 0.5 dB, which a
+track, its power a slow random walk, takes for a range error). Even so a track does not
+survive a changed mapping well (exponent 3, 2 dB, seed 0: containment 0.95 -> 0.65 with
+refits during the track), so refits stop once a track runs. The noise std is the inner
+pipeline's ``rssi_sigma_db`` (floored at ``sigma_floor_db``). So the detectors' thresholds
+and the localisers' measurement noise follow the fitted channel; ``pipeline.rssi_sigma_db``
+is only the starting point that is never used once calibrated. What the fitted model still
+gets wrong (heavy tails, errors repeated over time and links) the alert review measures on
+the cooperative aircraft (``review.py``): the alert thresholds and the localisers' noise
+follow it. The first alert can come no earlier than the calibration (a detection delay
+measured in the report).
 """
 
 from __future__ import annotations
@@ -28,6 +38,7 @@ import numpy as np
 
 from ridsafe.gcs.calibration.channel_fit import ChannelEstimate, fit_channel
 from ridsafe.gcs.calibration.cooperative import CooperativeLabeller
+from ridsafe.gcs.calibration.review import CalibratedReview
 from ridsafe.gcs.pipeline import EstimationPipeline
 from ridsafe.gcs.pipeline_api import CycleOutput, GcsPipeline, ObservedClaim, readonly
 from ridsafe.gcs.pipeline_config import PipelineConfig
@@ -37,10 +48,32 @@ logger = logging.getLogger(__name__)
 __all__ = ["CalibratingPipeline", "make_pipeline", "to_free_space"]
 
 
-def to_free_space(claim: ObservedClaim, estimate: ChannelEstimate) -> ObservedClaim:
-    """The claim with its RSSI mapped onto the free-space model (module docstring)."""
-    rssi = (2.0 / estimate.exponent) * (claim.rssi_dbm - estimate.bias_of(claim.rx_sysid))
-    return dataclasses.replace(claim, rssi_dbm=readonly(rssi))
+def airborne_receptions(claim: ObservedClaim, min_height_m: float) -> ObservedClaim:
+    """The claim with only the receptions of receivers at least ``min_height_m`` above the
+    ground (ENU up; flat ground at the origin's height). 0 keeps every reception."""
+    if min_height_m <= 0.0:
+        return claim
+    keep = claim.rx_p_enu_m[:, 2] >= min_height_m
+    if bool(keep.all()):
+        return claim
+    return dataclasses.replace(
+        claim,
+        rx_sysid=claim.rx_sysid[keep],
+        rx_p_enu_m=readonly(claim.rx_p_enu_m[keep]),
+        rx_t_s=readonly(claim.rx_t_s[keep]),
+        rssi_dbm=readonly(claim.rssi_dbm[keep]),
+    )
+
+
+def to_free_space(
+    claim: ObservedClaim, estimate: ChannelEstimate, pivot_dbm: float = 0.0
+) -> ObservedClaim:
+    """The claim with its RSSI mapped onto the free-space model (module docstring), scaled
+    about ``pivot_dbm``: rssi' = pivot + (2 / n) (rssi - b_r - pivot)."""
+    scaled = (2.0 / estimate.exponent) * (
+        claim.rssi_dbm - estimate.bias_of(claim.rx_sysid) - pivot_dbm
+    )
+    return dataclasses.replace(claim, rssi_dbm=readonly(scaled + pivot_dbm))
 
 
 class CalibratingPipeline:
@@ -49,9 +82,12 @@ class CalibratingPipeline:
     def __init__(self, config: PipelineConfig) -> None:
         self.config = config
         self.labeller = CooperativeLabeller(config.calibration)
+        self.review = CalibratedReview(config.calibration, self.labeller)
         self.estimate: ChannelEstimate | None = None
         self.inner: EstimationPipeline | None = None
         self._held: deque[ObservedClaim] = deque()
+        self._fitted_s = 0.0
+        self._pivot_dbm = 0.0  # the first fit's mean transmitter level (module docstring)
 
     def step(self, now_s: float, claims: Sequence[ObservedClaim]) -> CycleOutput:
         for claim in claims:
@@ -60,10 +96,36 @@ class CalibratingPipeline:
             self._hold(claims)
             if not self._ready(now_s):
                 return CycleOutput()
-            self.estimate = self._fit()
-            self.inner = EstimationPipeline(self._calibrated_config(self.estimate))
+            self.estimate, self._fitted_s = self._fit(), now_s
+            self._pivot_dbm = float(np.mean(list(self.estimate.tx_level_db.values())))
+            self.inner = EstimationPipeline(self._calibrated_config(self.estimate), self.review)
             claims, self._held = list(self._held), deque()
-        return self.inner.step(now_s, [to_free_space(c, self.estimate) for c in claims])
+        elif self._refit_due(now_s):
+            self.estimate, self._fitted_s = self._fit(), now_s
+        h = self.config.calibration.min_receiver_height_m
+        mapped = [
+            to_free_space(airborne_receptions(c, h), self.estimate, self._pivot_dbm) for c in claims
+        ]
+        out = self.inner.step(now_s, mapped)
+        self._update_inflation(now_s)
+        return out
+
+    def _refit_due(self, now_s: float) -> bool:
+        """Every ``refit_s``, while no track runs: a track takes a changed mapping for a
+        change of range (its transmit power a slow random walk)."""
+        refit_s = self.config.calibration.refit_s
+        if refit_s <= 0.0 or now_s - self._fitted_s < refit_s:
+            return False
+        return self.inner is not None and not self.inner.tracks
+
+    def _update_inflation(self, now_s: float) -> None:
+        """Tracks started from now on localise with the noise the vouched claims show."""
+        if self.inner is None or not self.config.calibration.honest_covariance:
+            return
+        inflation = self.review.localisation_inflation(now_s)
+        self.inner.config = dataclasses.replace(
+            self.inner.config, localisation_noise_inflation=inflation
+        )
 
     @property
     def compute_s(self) -> deque[float]:

@@ -186,7 +186,7 @@ class AuthorsImm:
             return False
         self._advance(claim.t_s)
         start_p = np.clip(self.fused().x[0, :3], -_POS_LIMIT_M, _POS_LIMIT_M)
-        m, a, sigma = self.cfg.multilateration, self.cfg.authors_imm, self.cfg.rssi_sigma_db
+        m, a, sigma = self.cfg.multilateration, self.cfg.authors_imm, self.cfg.localisation_sigma_db
         if rx.shape[0] >= 4:
             joint = solve_joint(rx, rssi, np.r_[start_p, self.power_dbm], sigma, m)
             if joint.ok:
@@ -214,7 +214,7 @@ def _detection_fix(claim: ObservedClaim, cfg: PipelineConfig) -> tuple[FloatArra
         return None
     p0 = np.asarray(claim.claimed_p_enu_m, dtype=np.float64)
     pt0 = float(np.median(rssi - predicted_rssi(p0, 0.0, rx, LOSS_AT_1M_2400MHZ_DB)))
-    fix = solve_joint(rx, rssi, np.r_[p0, pt0], cfg.rssi_sigma_db, cfg.multilateration)
+    fix = solve_joint(rx, rssi, np.r_[p0, pt0], cfg.localisation_sigma_db, cfg.multilateration)
     return (fix.p_enu_m, fix.tx_power_dbm) if fix.ok else None
 
 

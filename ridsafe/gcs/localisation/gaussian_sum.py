@@ -180,7 +180,7 @@ class GaussianSumLocaliser:
     def update(self, claim: ObservedClaim) -> bool:
         f = self.cfg.rssi_filter
         meas = RssiMeasurement(
-            claim.rx_p_enu_m, claim.rssi_dbm, self.cfg.rssi_sigma_db, f.rx_position_sigma_m
+            claim.rx_p_enu_m, claim.rssi_dbm, self.cfg.localisation_sigma_db, f.rx_position_sigma_m
         )
         self.state = imm.predict(self.state, self.model, max(claim.t_s, self.state.t_s))
         fused = imm.merge(self.state, self.model)
@@ -375,7 +375,7 @@ def start(
         seeds = grid_posterior(
             used,
             f.altitude_hypotheses_m,
-            cfg.rssi_sigma_db,
+            cfg.localisation_sigma_db,
             per_message_power=f.tx_power_jitter == "adaptive",
         )
         limit = cfg.tracks.max_init_std_m

@@ -45,7 +45,7 @@ def best_joint_fix(claim: ObservedClaim, cfg: PipelineConfig) -> Fix:
     rx, z = claim.rx_p_enu_m, claim.rssi_dbm
     start_c = centroid_start(rx, z, LOSS_AT_1M_2400MHZ_DB)
     start_claim = np.r_[claim.claimed_p_enu_m, start_c[3]]
-    fixes = [solve_joint(rx, z, s, cfg.rssi_sigma_db, m) for s in (start_c, start_claim)]
+    fixes = [solve_joint(rx, z, s, cfg.localisation_sigma_db, m) for s in (start_c, start_claim)]
     ok = [f for f in fixes if f.ok]
     return min(ok, key=lambda f: f.rms_residual_db) if ok else fixes[0]
 
@@ -98,7 +98,7 @@ class NllsImmLocaliser:
         m = self.cfg.multilateration
         p0 = imm.merge(prior, self.model).x[0, POS]
         pt, pt_var = self._tracked_power(claim.t_s)
-        sigma = self.cfg.rssi_sigma_db
+        sigma = self.cfg.localisation_sigma_db
         rx, z = claim.rx_p_enu_m, claim.rssi_dbm
         limit = m.position_only_below_power_std_db
         if limit > 0 and pt_var <= limit**2:
