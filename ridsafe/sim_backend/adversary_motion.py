@@ -9,7 +9,11 @@ controller tracks the path (it avoids nobody):
   ``waypoints`` claim says it flies.
 - ``OrbitMission``: a circle at constant speed, starting at the east of the circle.
 - ``PursueMission``: flies at the target's true position (an attacker with eyes on it) at
-  ``speed_m_s``, holding ``standoff_m`` short of it, never below ``MIN_PURSUE_ALT_M``.
+  ``speed_m_s``, holding ``standoff_m`` short of it, never below ``MIN_PURSUE_ALT_M``. Its
+  position target is a reference point that moves toward the target at ``speed_m_s`` (kept
+  within ``PURSUE_LEAD_S`` of flight of the pursuer), so the pursuer flies at that speed: a
+  target always one second ahead of the pursuer added the controller's position correction
+  to the feed-forward, and a "6 m/s" pursuer flew at 8 m/s, as fast as the benign aircraft.
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ from ridsafe.sim_backend.spoofer import StraightLineMission
 
 FloatArray = NDArray[np.float64]
 MIN_PURSUE_ALT_M = 10.0
-PURSUE_LEAD_S = 1.0  # the position target leads the pursuer by this much flight
+PURSUE_LEAD_S = 1.0  # the reference never leads the pursuer by more than this much flight
 
 
 class WaypointPath:
@@ -88,7 +92,8 @@ class OrbitMission:
 
 
 class PursueMission:
-    """Toward the target's true position at ``speed_m_s``, ``standoff_m`` short of it."""
+    """Toward the target's true position at ``speed_m_s``, ``standoff_m`` short of it
+    (module docstring: a reference point moving at ``speed_m_s``)."""
 
     def __init__(
         self,
@@ -101,20 +106,31 @@ class PursueMission:
         self.target_position = target_position
         self.speed_m_s = speed_m_s
         self.standoff_m = standoff_m
+        self._reference: FloatArray | None = None
+        self._last_s: float | None = None
 
     def target(self, now_s: float) -> tuple[FloatArray, FloatArray]:
         own = np.asarray(self.own_position(), dtype=np.float64)
         goal = np.asarray(self.target_position(), dtype=np.float64).copy()
         goal[2] = max(goal[2], MIN_PURSUE_ALT_M)
-        delta = goal - own
+        if self._reference is None or self._last_s is None:
+            reference, dt_s = own.copy(), 0.0
+        else:
+            reference, dt_s = self._reference, max(now_s - self._last_s, 0.0)
+        lead = reference - own  # the pursuer lags its reference by at most one lead
+        max_lead_m = self.speed_m_s * PURSUE_LEAD_S
+        if float(np.linalg.norm(lead)) > max_lead_m:
+            reference = own + lead * (max_lead_m / float(np.linalg.norm(lead)))
+        delta = goal - reference
         distance_m = float(np.linalg.norm(delta))
         to_go_m = distance_m - self.standoff_m
-        if to_go_m <= 0.0 or distance_m <= 0.0:
-            return own, np.zeros(3)
-        unit = delta / distance_m
-        position: FloatArray = own + unit * min(self.speed_m_s * PURSUE_LEAD_S, to_go_m)
-        velocity: FloatArray = unit * self.speed_m_s
-        return position, velocity
+        velocity: FloatArray = np.zeros(3)
+        if to_go_m > 0.0 and distance_m > 0.0:
+            unit = delta / distance_m
+            reference = reference + unit * min(self.speed_m_s * dt_s, to_go_m)
+            velocity = unit * self.speed_m_s
+        self._reference, self._last_s = reference, now_s
+        return reference.copy(), velocity
 
 
 Mission = StraightLineMission | WaypointPath | OrbitMission | PursueMission

@@ -75,11 +75,28 @@ def test_the_pursuer_aims_at_its_target_and_stops_at_the_standoff() -> None:
     chase = PursueMission(lambda: own, lambda: target, 6.0, standoff_m=20.0)
     p, v = chase.target(0.0)
     np.testing.assert_allclose(v, (6.0, 0.0, 0.0))
-    np.testing.assert_allclose(p, (6.0, 0.0, 60.0))  # one second of flight ahead
-    own = np.array([85.0, 0.0, 60.0])  # 15 m from the target: inside the standoff
-    p, v = chase.target(1.0)
+    np.testing.assert_allclose(p, own)  # the reference starts on the pursuer
+    own = np.array([2.5, 0.0, 60.0])
+    p, v = chase.target(0.5)  # ... and moves at the pursuit speed
+    np.testing.assert_allclose(p, (3.0, 0.0, 60.0))
+    own = np.array([85.0, 0.0, 60.0])  # the reference is pulled back to one second of flight
+    p, v = chase.target(20.0)  # (79 m), then closes to the standoff (80 m)
+    np.testing.assert_allclose(p, (80.0, 0.0, 60.0))
+    p, v = chase.target(20.5)  # at the standoff: it holds
     np.testing.assert_allclose(v, 0.0)
-    np.testing.assert_allclose(p, own)
+    np.testing.assert_allclose(p, (80.0, 0.0, 60.0))
+
+
+def test_the_pursuer_flies_at_its_pursuit_speed_not_faster(
+    flown: tuple[SimBackend, _Records, list[np.ndarray]],
+) -> None:
+    """The example's pursuer (6 m/s, its target 500 m away) in the sim's own dynamics: a
+    position target always one second ahead made it fly at 8 m/s, as fast as its victim."""
+    _, _, positions = flown
+    track = np.array([p[4] for p in positions])  # 0.05 s steps; column 4 = the pursuer
+    speed_m_s = np.linalg.norm(track[100:, :2] - track[99:-1, :2], axis=1) / 0.05
+    assert float(np.max(speed_m_s)) <= 6.3
+    assert float(np.mean(speed_m_s)) == pytest.approx(6.0, abs=0.2)
 
 
 def test_drift_is_honest_until_its_start_then_grows_at_its_rate_to_its_cap() -> None:

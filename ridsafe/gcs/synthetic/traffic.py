@@ -135,8 +135,12 @@ class Traffic:
         return self.paths[-1]
 
 
-def make_traffic(scene: Scene) -> Traffic:
-    """Every observed claim of the scene, grouped by the GCS cycle that delivers it."""
+def make_traffic(scene: Scene, spoofer_path: Path | None = None) -> Traffic:
+    """Every observed claim of the scene, grouped by the GCS cycle that delivers it.
+
+    ``spoofer_path``: the spoofer flies it instead of its straight line (a manoeuvring
+    spoofer); the line is still drawn, so the benign traffic and every phase stay the same.
+    """
     rng = np.random.default_rng(scene.seed)
     path_rng, radio_rng = rng.spawn(2)
     make = _waypoint_path if scene.start == "airborne" else _depot_path
@@ -144,7 +148,8 @@ def make_traffic(scene: Scene) -> Traffic:
     ids = [benign_id(i) for i in range(scene.n_receivers)]
     powers = [scene.tx_power_dbm] * scene.n_receivers
     if scene.with_spoofer:
-        paths.append(_spoofer_path(path_rng, scene))
+        line = _spoofer_path(path_rng, scene)
+        paths.append(line if spoofer_path is None else spoofer_path)
         ids.append(SPOOFER_ID)
         powers.append(scene.spoofer_tx_power_dbm)
     phases = path_rng.uniform(0.0, 1.0, len(paths))
