@@ -121,6 +121,8 @@ def le_reports(event: bytes) -> list[AdvertisingReport]:
     params = event[2 : 2 + event[1]]
     if len(params) < event[1]:
         raise BluetoothError(f"LE meta event claims {event[1]} bytes, has {len(params)}")
+    if not params:
+        raise BluetoothError("LE meta event without a subevent code (length 0)")
     if params[0] == LE_ADVERTISING_REPORT:
         return _legacy(params[1:])
     if params[0] == LE_EXTENDED_ADVERTISING_REPORT:

@@ -65,6 +65,17 @@ def test_a_record_cut_short_at_the_end_is_counted_and_the_others_kept(tmp_path: 
     assert problem.startswith(f"cut.pcap: record 3 (byte {third}): truncated: record needs")
 
 
+def test_an_le_meta_event_of_length_zero_is_skipped_and_named(tmp_path: Path) -> None:
+    """H4 event 0x3E with parameter length 0 (and a stray byte) has no subevent code (the
+    fuzz test found it raising IndexError)."""
+    good = bytes(b.legacy_report_event(PHONE, 1, LOCATION, -60))
+    items = [b.Timed(0.0, b.Raw(b"\x04\x3e\x00\x02")), b.Timed(0.1, b.Raw(good))]
+    capture = read_capture(b.write_btsnoop(tmp_path / "z.btsnoop", items).read_bytes(), "z")
+    assert len(capture.frames) == 1
+    assert sum(capture.skipped.values()) == 1
+    assert "subevent" in capture.problems[0]
+
+
 def test_a_hostile_record_length_stops_the_file_without_reading_past_it(tmp_path: Path) -> None:
     data = bytearray(_wifi(tmp_path))
     record_2 = 24 + (len(data) - 24) // 3
