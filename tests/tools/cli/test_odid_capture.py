@@ -7,6 +7,8 @@ printed message must decode to what ``ridsafe.common.f3411`` says those bytes ho
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -152,3 +154,22 @@ def test_the_aircrafts_own_broadcasts_in_a_capture_are_left_out_and_counted(
     heard = receiver.poll(1.0)
     assert [(h.sender_id, h.rssi_dbm) for h in heard] == [(b"02:00:00:00:00:02", -70.0)]
     assert receiver.counters() == {"released": 1, "waiting": 0, "own_frames": 1}
+
+
+def test_a_reader_that_leaves_early_ends_the_command_quietly(tmp_path: Path) -> None:
+    """``ridsafe odid capture FILE | head -1``: no BrokenPipeError traceback, exit 141 (as a
+    shell reports SIGPIPE), through a real pipe."""
+    pack = b.location_pack(LOCATIONS[0], BASIC)
+    items = [
+        b.Timed(0.01 * i, b.beacon("02:00:00:00:00:01", i % 256, pack, -61)) for i in range(4000)
+    ]
+    capture = b.write_pcapng(tmp_path / "many.pcapng", items, b.LINKTYPE_RADIOTAP)
+    argv = [sys.executable, "-m", "ridsafe.tools.cli", "odid", "capture", str(capture)]
+    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert proc.stdout is not None and proc.stderr is not None
+    first = proc.stdout.readline()
+    proc.stdout.close()  # the reader leaves, as `head -1` does
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=60) == 141, err
+    assert json.loads(first)["message"] == "OPEN_DRONE_ID_BASIC_ID"
+    assert "Traceback" not in err
