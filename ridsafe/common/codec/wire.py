@@ -23,7 +23,13 @@ from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 from ridsafe.common import messages as m
-from ridsafe.common.codec.registry import decoder_for, to_wire, wire_values
+from ridsafe.common.codec.registry import (
+    byte_arrays,
+    decoder_for,
+    to_wire,
+    wire_struct,
+    wire_values,
+)
 from ridsafe.common.codec.units import FromMav
 from ridsafe.common.dialect import ridsafe_v20 as mav
 
@@ -57,7 +63,7 @@ def encode_payload(message: m.Message) -> Payload:
     """The payload of a domain message (raises WireError if it cannot be encoded). Encoding
     once and framing per link (``MavlinkLink.frame``) sends one message to many peers."""
     wire = to_wire(message)
-    data = wire.cls.unpacker.pack(*wire_values(wire))
+    data = wire_struct(wire.cls).pack(*wire_values(wire))
     return Payload(
         wire.cls.id, _CRC_EXTRA_BYTE[wire.cls.crc_extra], data.rstrip(b"\x00") or data[:1]
     )
@@ -115,24 +121,42 @@ class Layout:
         return self.make_view(values)
 
 
+#: Messages whose decoded view holds each uint8 array as bytes (unpacked as one ``Ns`` item,
+#: ``registry.wire_struct``) rather than a tuple of ints: their from-MAVLink functions read
+#: those fields with ``bytes(...)`` / slices, which give the same result for either. A RID
+#: frame report is 250 such bytes, and every aircraft hears ~20 per second.
+BYTES_VIEW_MESSAGES = frozenset({"RIDSAFE_RID_FRAME"})
+
+
 @functools.cache
 def layout(msg_id: int) -> Layout | None:
     """How to check and unpack message id ``msg_id`` (None: not in the dialect)."""
     cls = mav.mavlink_map.get(msg_id)
     if cls is None:
         return None
-    lengths = cls.lengths
+    chars = _char_fields(cls)
+    unpacker, lengths = cls.unpacker, list(cls.lengths)
+    if cls.msgname in BYTES_VIEW_MESSAGES:
+        unpacker = wire_struct(cls)
+        lengths = [1 if w in byte_arrays(cls) else n for w, n in enumerate(lengths)]
     tips = [sum(lengths[:order]) for order in cls.orders]
     slices = tuple((tip, lengths[order]) for tip, order in zip(tips, cls.orders, strict=True))
-    firsts = cls.unpacker.unpack(bytes(cls.unpacker.size))
     return Layout(
         cls.msgname,
         _CRC_EXTRA_BYTE[cls.crc_extra],
-        cls.unpacker,
+        unpacker,
         slices,
         operator.itemgetter(*(tip for tip, _ in slices)),
         tuple((i, tip, length) for i, (tip, length) in enumerate(slices) if length > 1),
-        tuple(i for i, (tip, _) in enumerate(slices) if isinstance(firsts[tip], bytes)),
+        chars,
         _view_type(cls.msgname, tuple(cls.fieldnames)),
         decoder_for(cls.msgname),
     )
+
+
+def _char_fields(cls: Any) -> tuple[int, ...]:
+    """XML indices of the fields ``cls.unpacker`` unpacks as bytes (char and char arrays)."""
+    lengths = cls.lengths
+    tips = [sum(lengths[:order]) for order in cls.orders]
+    firsts = cls.unpacker.unpack(bytes(cls.unpacker.size))
+    return tuple(i for i, tip in enumerate(tips) if isinstance(firsts[tip], bytes))
