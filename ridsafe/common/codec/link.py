@@ -36,6 +36,15 @@ from ridsafe.common.frozen import quick_init
 
 logger = logging.getLogger(__name__)
 
+#: Decoding is a pure function of (message layout, payload bytes) and domain messages are
+#: immutable, so a payload decoded once is not decoded again while it is remembered: the
+#: GCS's regions, alerts and heartbeats reach every companion with the same payload (only
+#: the header and signature differ), and so do the many constant heartbeats. Only valid
+#: messages are remembered (a rejected payload is rejected, counted and logged each time);
+#: the memo is cleared when full. Shared by every link of the process.
+DECODED_MEMO_SIZE = 4096
+_DECODED: dict[tuple[str, bytes], m.Message] = {}
+
 
 @quick_init
 @dataclass(frozen=True, slots=True)
@@ -264,9 +273,24 @@ class MavlinkLink:
         a value no valid sender produces (dropped and counted by message and field)."""
         if packet_layout.decode is None:
             return None
-        name = packet_layout.name
+        key = (packet_layout.name, payload)
+        known = _DECODED.get(key)
+        if known is not None:
+            return known
+        message = self._decode_fresh(packet_layout, payload, packet)
+        if message is not None and message is not False:
+            if len(_DECODED) >= DECODED_MEMO_SIZE:
+                _DECODED.clear()
+            _DECODED[key] = message
+        return message
+
+    def _decode_fresh(self, packet_layout: Layout, payload: bytes, packet: bytes) -> Any:
+        """``_decode_message`` without the memo."""
+        name, decode = packet_layout.name, packet_layout.decode
+        if decode is None:
+            return None
         try:
-            message = packet_layout.decode(packet_layout.view(payload))
+            message = decode(packet_layout.view(payload))
         except (WireError, ValueError, TypeError, UnicodeDecodeError, OverflowError) as exc:
             self._reject_field(name, "decode", packet[5], packet[6], str(exc))
             return False
