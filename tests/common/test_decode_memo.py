@@ -1,6 +1,6 @@
-"""The links' decode memo (``codec.link``): a payload decoded once is handed to every link
-that receives it again, and a payload no valid sender produces is still refused, counted
-and never remembered."""
+"""The links' decode memo and batch framing (``codec.link``): a payload decoded once is
+handed to every link that receives it again; a payload no valid sender produces is still
+refused, counted and never remembered; ``frame_all`` frames as ``frame`` does."""
 
 from __future__ import annotations
 
@@ -65,3 +65,12 @@ def test_the_memo_is_bounded() -> None:
         (received,) = receiver.feed(sender.pack(_region(20.0 + k)))
         assert math.isclose(received.message.valid_until_s, 20.0 + k, abs_tol=1e-6)
     assert len(link._DECODED) <= link.DECODED_MEMO_SIZE
+
+
+def test_frame_all_gives_the_packets_frame_gives_one_at_a_time() -> None:
+    key = bytes(range(32))
+    for signing in (None, codec.SigningConfig(key, 12345)):
+        one, many = codec.MavlinkLink(255, 190, signing), codec.MavlinkLink(255, 190, signing)
+        payloads = [codec.encode_payload(_region(12.0 + k)) for k in range(300)]  # seq wraps
+        assert many.frame_all(payloads) == [one.frame(p) for p in payloads]
+        assert many.pack(_region(1.0)) == one.pack(_region(1.0))  # and the state moved alike

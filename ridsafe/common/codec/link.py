@@ -145,6 +145,25 @@ class MavlinkLink:
         packet += x25_crc(packet[1:] + crc_extra).to_bytes(2, "little")
         return packet if self._signing is None else self._signing.sign(packet)
 
+    def frame_all(self, payloads: list[Payload]) -> list[bytes]:
+        """``frame`` of each payload, in order (one call for a broadcast's messages: the
+        link's state is read and written once, not per packet)."""
+        seq, incompat, system, component = (
+            self._seq,
+            self._incompat_flags,
+            self._system,
+            self._component,
+        )
+        signing, pack, out = self._signing, HEADER.pack, []
+        for msg_id, crc_extra, data in payloads:
+            packet = pack(STX_V2, len(data), incompat, 0, seq, system, component,
+                          msg_id & 0xFFFF, msg_id >> 16) + data  # fmt: skip
+            seq = (seq + 1) & 0xFF
+            packet += x25_crc(packet[1:] + crc_extra).to_bytes(2, "little")
+            out.append(packet if signing is None else signing.sign(packet))
+        self._seq = seq
+        return out
+
     def advance_signing_clock(self, elapsed_s: float) -> None:
         """With signing: outgoing stamps at least ``initial_timestamp`` plus ``elapsed_s``
         (the core's time since its signing clock started) in 10 us units."""
