@@ -3,7 +3,8 @@ list[Received]``.
 
 All the codec state of a link lives in its ``MavlinkLink``: the outgoing sequence number,
 the parse buffer of a byte stream, the signing clock and replay window, the counters. Two
-links (two cores in one process) share nothing. A link never raises on input: malformed
+links (two cores in one process) share no state; they share only a bounded memo of the pure
+payload -> message decoding (``DECODED_MEMO_SIZE``). A link never raises on input: malformed
 frames, unknown message ids, values out of range and unsigned or wrongly signed packets are
 logged, counted in ``LinkCounters`` and dropped, and parsing goes on with the next frame.
 """

@@ -4,6 +4,8 @@ pymavlink's parser works a byte at a time and builds a message object per packet
 path (a 16-aircraft lockstep run moves ~200k messages) that cost 3x what this does: find
 packets with bytes.find, check the CRC with binascii, unpack the payload with the message's
 own struct and hand the fields to the domain conversion as attributes (``Layout.view``).
+A uint8 array travels as one bytes item, not one Python int per byte (``registry.wire_struct``,
+``BYTES_VIEW_MESSAGES``): the same bytes on the wire.
 
 Packet (MAVLink 2): ``STX(0xFD) len incompat compat seq sysid compid msgid(3) payload
 crc(2) [signature(13)]``; the CRC (X.25) covers everything after STX plus the message's CRC
