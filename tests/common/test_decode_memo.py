@@ -63,6 +63,7 @@ def test_the_memo_is_bounded() -> None:
     sender, receiver = codec.MavlinkLink(255, 190), codec.MavlinkLink(1, 191)
     for k in range(link.DECODED_MEMO_SIZE + 10):
         (received,) = receiver.feed(sender.pack(_region(20.0 + k)))
+        assert isinstance(received.message, m.UnsafeRegionMsg)
         assert math.isclose(received.message.valid_until_s, 20.0 + k, abs_tol=1e-6)
     assert len(link._DECODED) <= link.DECODED_MEMO_SIZE
 
