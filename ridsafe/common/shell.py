@@ -293,7 +293,7 @@ class AppShell:
         payloads = [encode_payload(message) for message in messages]
         for name in names:
             endpoint = self.endpoints[name]
-            endpoint.outbox.extend(endpoint.link.frame(payload) for payload in payloads)
+            endpoint.outbox.extend(endpoint.link.frame_all(payloads))
 
     def flush(self) -> Datagrams:
         """Everything queued since the last flush, as datagrams per endpoint."""

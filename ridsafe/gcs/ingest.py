@@ -260,6 +260,8 @@ class Ingest:
         self._open: dict[GroupKey, _Group] = {}
         self._closed: dict[GroupKey, float] = {}  # key -> when it closed (sim time)
         self._history: OrderedDict[str, deque[ObservedClaim]] = OrderedDict()
+        #: per receiver system id: its last (lat, lon, alt) and their ENU conversion
+        self._last_rx: dict[int, tuple[tuple[float, float, float], tuple[float, float, float]]] = {}
 
     @property
     def open_groups(self) -> int:
@@ -288,9 +290,7 @@ class Ingest:
             return reason
         key = group_key(obs.uas_id, obs.rid_timestamp_s)
         group = self._open.get(key)
-        rx_p = frames.geodetic_to_enu_point(
-            self.origin, obs.rx_lat_deg, obs.rx_lon_deg, obs.rx_alt_m
-        )
+        rx_p = self._rx_enu(rx_sysid, obs.rx_lat_deg, obs.rx_lon_deg, obs.rx_alt_m)
         claimed_geo = (obs.claimed_lat_deg, obs.claimed_lon_deg, obs.claimed_alt_m)
         if group is not None and group.claimed_geodetic == claimed_geo:
             claimed_p = group.claimed_p_enu_m  # every receiver reports the same claim
@@ -311,6 +311,19 @@ class Ingest:
             return RejectReason.DUPLICATE
         group.add(ReportedReception(rx_sysid, obs.t_s, rx_p, obs.rssi_dbm))
         return None
+
+    def _rx_enu(
+        self, rx_sysid: int, lat_deg: float, lon_deg: float, alt_m: float
+    ) -> tuple[float, float, float]:
+        """The receiver's ENU position: a companion reports every frame it heard in one step
+        from one position, so the last conversion per receiver is reused when it matches."""
+        geodetic = (lat_deg, lon_deg, alt_m)
+        last = self._last_rx.get(rx_sysid)
+        if last is not None and last[0] == geodetic:
+            return last[1]
+        p_enu_m = frames.geodetic_to_enu_point(self.origin, lat_deg, lon_deg, alt_m)
+        self._last_rx[rx_sysid] = (geodetic, p_enu_m)
+        return p_enu_m
 
     def close_due(self, now_s: float) -> list[ObservedClaim]:
         window = self.config.group_window_s

@@ -311,3 +311,20 @@ def test_closed_keys_are_forgotten_oldest_first_after_the_history_window() -> No
     assert ingest.add(3.6, 2, late) is RejectReason.LATE  # its broadcast closed already
     ingest.close_due(1.5 + cfg.history_window_s + 1.1)  # the first two keys expire
     assert len(ingest._closed) == 1
+
+
+def test_a_receiver_that_moves_between_reports_is_placed_where_each_report_says() -> None:
+    """The per-receiver conversion memo: the same position reuses the last conversion, a new
+    one is converted afresh (one receiver reports three broadcasts, moving before the last)."""
+    ingest = Ingest(GcsConfig(), ORIGIN)
+    first, moved = (10.0, -20.0, 30.0), (15.0, -18.0, 31.0)
+    reports = [(first, 1200.5), (first, 1201.5), (moved, 1202.5)]
+    for rx_enu_m, rid_timestamp_s in reports:
+        assert (
+            ingest.add(1.0, 7, observation(rx_enu_m=rx_enu_m, rid_timestamp_s=rid_timestamp_s))
+            is None
+        )
+    claims = sorted(ingest.close_due(1.5), key=lambda c: c.rid_timestamp_s)
+    assert len(claims) == 3
+    for claim, (rx_enu_m, _) in zip(claims, reports, strict=True):
+        np.testing.assert_allclose(claim.rx_p_enu_m, [rx_enu_m], atol=1e-6)

@@ -3,7 +3,8 @@ list[Received]``.
 
 All the codec state of a link lives in its ``MavlinkLink``: the outgoing sequence number,
 the parse buffer of a byte stream, the signing clock and replay window, the counters. Two
-links (two cores in one process) share nothing. A link never raises on input: malformed
+links (two cores in one process) share no state; they share only a bounded memo of the pure
+payload -> message decoding (``DECODED_MEMO_SIZE``). A link never raises on input: malformed
 frames, unknown message ids, values out of range and unsigned or wrongly signed packets are
 logged, counted in ``LinkCounters`` and dropped, and parsing goes on with the next frame.
 """
@@ -35,6 +36,15 @@ from ridsafe.common.errors import WireError
 from ridsafe.common.frozen import quick_init
 
 logger = logging.getLogger(__name__)
+
+#: Decoding is a pure function of (message layout, payload bytes) and domain messages are
+#: immutable, so a payload decoded once is not decoded again while it is remembered: the
+#: GCS's regions, alerts and heartbeats reach every companion with the same payload (only
+#: the header and signature differ), and so do the many constant heartbeats. Only valid
+#: messages are remembered (a rejected payload is rejected, counted and logged each time);
+#: the memo is cleared when full. Shared by every link of the process.
+DECODED_MEMO_SIZE = 4096
+_DECODED: dict[tuple[str, bytes], m.Message] = {}
 
 
 @quick_init
@@ -135,6 +145,25 @@ class MavlinkLink:
         )
         packet += x25_crc(packet[1:] + crc_extra).to_bytes(2, "little")
         return packet if self._signing is None else self._signing.sign(packet)
+
+    def frame_all(self, payloads: list[Payload]) -> list[bytes]:
+        """``frame`` of each payload, in order (one call for a broadcast's messages: the
+        link's state is read and written once, not per packet)."""
+        seq, incompat, system, component = (
+            self._seq,
+            self._incompat_flags,
+            self._system,
+            self._component,
+        )
+        signing, pack, out = self._signing, HEADER.pack, []
+        for msg_id, crc_extra, data in payloads:
+            packet = pack(STX_V2, len(data), incompat, 0, seq, system, component,
+                          msg_id & 0xFFFF, msg_id >> 16) + data  # fmt: skip
+            seq = (seq + 1) & 0xFF
+            packet += x25_crc(packet[1:] + crc_extra).to_bytes(2, "little")
+            out.append(packet if signing is None else signing.sign(packet))
+        self._seq = seq
+        return out
 
     def advance_signing_clock(self, elapsed_s: float) -> None:
         """With signing: outgoing stamps at least ``initial_timestamp`` plus ``elapsed_s``
@@ -264,9 +293,24 @@ class MavlinkLink:
         a value no valid sender produces (dropped and counted by message and field)."""
         if packet_layout.decode is None:
             return None
-        name = packet_layout.name
+        key = (packet_layout.name, payload)
+        known = _DECODED.get(key)
+        if known is not None:
+            return known
+        message = self._decode_fresh(packet_layout, payload, packet)
+        if message is not None and message is not False:
+            if len(_DECODED) >= DECODED_MEMO_SIZE:
+                _DECODED.clear()
+            _DECODED[key] = message
+        return message
+
+    def _decode_fresh(self, packet_layout: Layout, payload: bytes, packet: bytes) -> Any:
+        """``_decode_message`` without the memo."""
+        name, decode = packet_layout.name, packet_layout.decode
+        if decode is None:
+            return None
         try:
-            message = packet_layout.decode(packet_layout.view(payload))
+            message = decode(packet_layout.view(payload))
         except (WireError, ValueError, TypeError, UnicodeDecodeError, OverflowError) as exc:
             self._reject_field(name, "decode", packet[5], packet[6], str(exc))
             return False

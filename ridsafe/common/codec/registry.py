@@ -11,6 +11,8 @@ from __future__ import annotations
 import functools
 import inspect
 import operator
+import re
+import struct
 from collections.abc import Callable
 from typing import Any
 
@@ -63,8 +65,8 @@ def from_mavlink(raw: Any) -> m.Message | None:
 
 
 def wire_values(wire: Wire) -> tuple[Any, ...] | list[Any]:
-    """The values ``wire.cls.unpacker`` packs: the fields in wire order, arrays flattened,
-    char arrays as bytes."""
+    """The values ``wire_struct(wire.cls)`` packs: the fields in wire order, uint8 arrays as
+    bytes (one ``s`` item), other arrays flattened, char arrays as bytes."""
     getter, arrays, chars, defaults = wire_plan(wire.cls)
     args = wire.args
     if len(args) < len(defaults):  # extension fields left to their constructor defaults
@@ -76,9 +78,46 @@ def wire_values(wire: Wire) -> tuple[Any, ...] | list[Any]:
     for index in chars:
         if isinstance(out[index], str):
             out[index] = out[index].encode("latin-1")
+    uint8_arrays = byte_arrays(wire.cls)
     for index in reversed(arrays):  # from the end: earlier indices stay valid
-        out[index : index + 1] = out[index]
+        length = uint8_arrays.get(index)
+        if length is None:
+            out[index : index + 1] = out[index]
+            continue
+        value = out[index]
+        value = value if type(value) is bytes else bytes(value)
+        if len(value) != length:  # as the unpacker's length-many B items would refuse
+            raise WireError(f"{wire.cls.msgname}: {len(value)} values for uint8[{length}]")
+        out[index] = value
     return out
+
+
+@functools.cache
+def wire_struct(cls: Any) -> struct.Struct:
+    """``cls.unpacker`` with every uint8 array packed as one ``Ns`` item instead of N ``B``
+    items: the same bytes, one value (bytes) per array instead of N Python ints."""
+    return struct.Struct(_byte_array_format(cls))
+
+
+def _byte_array_format(cls: Any) -> str:
+    arrays = byte_arrays(cls)
+    items = re.findall(r"(\d*)([a-zA-Z?])", cls.unpacker.format[1:])
+    parts = [cls.unpacker.format[0]]
+    for wire_index, (count, code) in enumerate(items):
+        length = arrays.get(wire_index)
+        parts.append(f"{length}s" if length is not None else f"{count}{code}")
+    return "".join(parts)
+
+
+@functools.cache
+def byte_arrays(cls: Any) -> dict[int, int]:
+    """Wire index -> length of every uint8 array of a message class."""
+    xml_of_wire = sorted(range(len(cls.orders)), key=lambda i: cls.orders[i])
+    return {
+        w: n
+        for w, n in enumerate(cls.array_lengths)
+        if n > 0 and cls.fieldtypes[xml_of_wire[w]] == "uint8_t"
+    }
 
 
 @functools.cache

@@ -48,7 +48,7 @@ def _rid_frame_to(msg: m.RidFrameReport) -> Wire:
         msg.transport,
         msg.channel,
         len(frame),
-        list(frame.ljust(RID_FRAME_MAX_BYTES, b"\x00")),
+        frame.ljust(RID_FRAME_MAX_BYTES, b"\x00"),  # bytes: packed whole (wire_struct)
     )
 
 

@@ -4,6 +4,8 @@ pymavlink's parser works a byte at a time and builds a message object per packet
 path (a 16-aircraft lockstep run moves ~200k messages) that cost 3x what this does: find
 packets with bytes.find, check the CRC with binascii, unpack the payload with the message's
 own struct and hand the fields to the domain conversion as attributes (``Layout.view``).
+A uint8 array travels as one bytes item, not one Python int per byte (``registry.wire_struct``,
+``BYTES_VIEW_MESSAGES``): the same bytes on the wire.
 
 Packet (MAVLink 2): ``STX(0xFD) len incompat compat seq sysid compid msgid(3) payload
 crc(2) [signature(13)]``; the CRC (X.25) covers everything after STX plus the message's CRC
@@ -23,7 +25,13 @@ from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 from ridsafe.common import messages as m
-from ridsafe.common.codec.registry import decoder_for, to_wire, wire_values
+from ridsafe.common.codec.registry import (
+    byte_arrays,
+    decoder_for,
+    to_wire,
+    wire_struct,
+    wire_values,
+)
 from ridsafe.common.codec.units import FromMav
 from ridsafe.common.dialect import ridsafe_v20 as mav
 
@@ -57,7 +65,7 @@ def encode_payload(message: m.Message) -> Payload:
     """The payload of a domain message (raises WireError if it cannot be encoded). Encoding
     once and framing per link (``MavlinkLink.frame``) sends one message to many peers."""
     wire = to_wire(message)
-    data = wire.cls.unpacker.pack(*wire_values(wire))
+    data = wire_struct(wire.cls).pack(*wire_values(wire))
     return Payload(
         wire.cls.id, _CRC_EXTRA_BYTE[wire.cls.crc_extra], data.rstrip(b"\x00") or data[:1]
     )
@@ -115,24 +123,42 @@ class Layout:
         return self.make_view(values)
 
 
+#: Messages whose decoded view holds each uint8 array as bytes (unpacked as one ``Ns`` item,
+#: ``registry.wire_struct``) rather than a tuple of ints: their from-MAVLink functions read
+#: those fields with ``bytes(...)`` / slices, which give the same result for either. A RID
+#: frame report is 250 such bytes, and every aircraft hears ~20 per second.
+BYTES_VIEW_MESSAGES = frozenset({"RIDSAFE_RID_FRAME"})
+
+
 @functools.cache
 def layout(msg_id: int) -> Layout | None:
     """How to check and unpack message id ``msg_id`` (None: not in the dialect)."""
     cls = mav.mavlink_map.get(msg_id)
     if cls is None:
         return None
-    lengths = cls.lengths
+    chars = _char_fields(cls)
+    unpacker, lengths = cls.unpacker, list(cls.lengths)
+    if cls.msgname in BYTES_VIEW_MESSAGES:
+        unpacker = wire_struct(cls)
+        lengths = [1 if w in byte_arrays(cls) else n for w, n in enumerate(lengths)]
     tips = [sum(lengths[:order]) for order in cls.orders]
     slices = tuple((tip, lengths[order]) for tip, order in zip(tips, cls.orders, strict=True))
-    firsts = cls.unpacker.unpack(bytes(cls.unpacker.size))
     return Layout(
         cls.msgname,
         _CRC_EXTRA_BYTE[cls.crc_extra],
-        cls.unpacker,
+        unpacker,
         slices,
         operator.itemgetter(*(tip for tip, _ in slices)),
         tuple((i, tip, length) for i, (tip, length) in enumerate(slices) if length > 1),
-        tuple(i for i, (tip, _) in enumerate(slices) if isinstance(firsts[tip], bytes)),
+        chars,
         _view_type(cls.msgname, tuple(cls.fieldnames)),
         decoder_for(cls.msgname),
     )
+
+
+def _char_fields(cls: Any) -> tuple[int, ...]:
+    """XML indices of the fields ``cls.unpacker`` unpacks as bytes (char and char arrays)."""
+    lengths = cls.lengths
+    tips = [sum(lengths[:order]) for order in cls.orders]
+    firsts = cls.unpacker.unpack(bytes(cls.unpacker.size))
+    return tuple(i for i, tip in enumerate(tips) if isinstance(firsts[tip], bytes))
