@@ -70,7 +70,7 @@ def test_an_le_meta_event_of_length_zero_is_skipped_and_named(tmp_path: Path) ->
     """H4 event 0x3E with parameter length 0 (and a stray byte) has no subevent code (the
     fuzz test found it raising IndexError)."""
     good = bytes(b.legacy_report_event(PHONE, 1, LOCATION, -60))
-    items = [b.Timed(0.0, Raw(b"\x04\x3e\x00\x02")), b.Timed(0.1, b.Raw(good))]
+    items = [b.Timed(0.0, Raw(b"\x04\x3e\x00\x02")), b.Timed(0.1, Raw(good))]
     capture = read_capture(b.write_btsnoop(tmp_path / "z.btsnoop", items).read_bytes(), "z")
     assert len(capture.frames) == 1
     assert sum(capture.skipped.values()) == 1
