@@ -19,6 +19,14 @@ only the aircraft that are a conflict:
   (``q_j``, ``w_j``, ``t_j``: the claim's position, velocity and time; ``p``, ``v``: own;
   ``T`` = ``horizon_s``).
 
+Right of way (``right_of_way_s`` > 0): of two benign aircraft in conflict only one gives
+way, the one whose serial sorts later (in the family, the later launch). The other keeps a
+lower-priority aircraft only while it is near or closing to within ``miss_m`` in the next
+``right_of_way_s`` (a last-moment conflict that both avoid); otherwise it flies on as if
+alone, straight and predictable, which is what the yielding aircraft's planner assumes of it
+(it projects every neighbour along its Remote ID velocity). Two planners that both give way
+each predict the other flying straight, both turn, and in a crowd they dither.
+
 Aircraft that claim to stand on the ground (``pad_clearance.on_ground``) are left out too:
 they are parked on their pads. Claims flagged as spoofers pass untouched (the planner's
 policy decides about them).
@@ -54,6 +62,7 @@ class TrafficGate:
     near_m: float = 60.0
     miss_m: float = 75.0
     horizon_s: float = 10.0
+    right_of_way_s: float = 0.0  # 0: every aircraft gives way to every other
 
     def __post_init__(self) -> None:
         if not 0 <= self.min_airborne <= 100_000:
@@ -62,19 +71,22 @@ class TrafficGate:
             )
         for name in ("near_m", "miss_m", "horizon_s"):
             check_in_interval(name, getattr(self, name), 0.0, 10_000.0)
+        check_in_interval("right_of_way_s", self.right_of_way_s, -1e-12, self.horizon_s)
 
     @property
     def enabled(self) -> bool:
         return self.min_airborne > 0
 
 
-def closest_approach_m(r_m: FloatArray, u_m_s: FloatArray, horizon_s: float) -> FloatArray:
+def closest_approach_m(
+    r_m: FloatArray, u_m_s: FloatArray, horizon_s: float | FloatArray
+) -> FloatArray:
     """d_cpa (module docstring) per row of relative positions ``r_m : (N, 3)`` and relative
-    velocities ``u_m_s : (N, 3)`` over (0, ``horizon_s``]; inf where the range does not
-    shrink; (N,)."""
+    velocities ``u_m_s : (N, 3)`` over (0, ``horizon_s``] (a scalar or one per row); inf
+    where the range does not shrink; (N,)."""
     u2 = np.einsum("ij,ij->i", u_m_s, u_m_s)
     ru = np.einsum("ij,ij->i", r_m, u_m_s)
-    closing = ru < 0.0  # (then |u| > 0)
+    closing = (ru < 0.0) & (u2 > 0.0)
     tau = np.minimum(-ru / np.where(closing, u2, 1.0), horizon_s)
     d_cpa = np.linalg.norm(r_m + u_m_s * tau[:, None], axis=1)
     return np.asarray(np.where(closing, d_cpa, np.inf))
@@ -89,9 +101,11 @@ def gate_neighbours(
     gate: TrafficGate,
     speed_m_s: float,
     ground_down_m: float,
+    own_id: str = "",
 ) -> tuple[Neighbour, ...]:
     """The neighbours the planner should see (module docstring), in their given order;
-    ``speed_m_s`` is the cruise speed of the straight-at-the-goal motion."""
+    ``speed_m_s`` is the cruise speed of the straight-at-the-goal motion, ``own_id`` the own
+    serial (the right of way compares it with the neighbours' ids)."""
     if not gate.enabled:
         return neighbours
     airborne = tuple(n for n in neighbours if not on_ground(n, ground_down_m))
@@ -105,9 +119,14 @@ def gate_neighbours(
     w = np.array([n.v_ned_m_s for n in benign], dtype=np.float64)
     age = t_s - np.array([n.t_s for n in benign], dtype=np.float64)
     r = q + w * age[:, None] - p
-    conflict = np.linalg.norm(r, axis=1) < gate.near_m
+    near = np.linalg.norm(r, axis=1) < gate.near_m
+    horizon = np.full(len(benign), gate.horizon_s)
+    if gate.right_of_way_s > 0.0:
+        gives_way = np.array([n.uas_id > own_id for n in benign])
+        horizon[gives_way] = gate.right_of_way_s  # they give way to us
+    conflict = near
     for own_v in _own_motions(p, v_ned_m_s, goal_ned_m, speed_m_s):
-        conflict |= closest_approach_m(r, w - own_v, gate.horizon_s) < gate.miss_m
+        conflict |= closest_approach_m(r, w - own_v, horizon) < gate.miss_m
     keep = {id(n) for n, c in zip(benign, conflict, strict=True) if c}
     return tuple(n for n in airborne if n.flagged or id(n) in keep)
 
