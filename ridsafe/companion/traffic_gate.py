@@ -63,6 +63,11 @@ class TrafficGate:
     miss_m: float = 75.0
     horizon_s: float = 10.0
     right_of_way_s: float = 0.0  # 0: every aircraft gives way to every other
+    # Within this (horizontal) of the goal, fly straight at it when that keeps approach_clear_m
+    # from every airborne aircraft (goal_approach.py); 0: leave the approach to the planner.
+    approach_radius_m: float = 0.0
+    approach_clear_m: float = 55.0
+    approach_speed_m_s: float = 4.0
 
     def __post_init__(self) -> None:
         if not 0 <= self.min_airborne <= 100_000:
@@ -72,6 +77,13 @@ class TrafficGate:
         for name in ("near_m", "miss_m", "horizon_s"):
             check_in_interval(name, getattr(self, name), 0.0, 10_000.0)
         check_in_interval("right_of_way_s", self.right_of_way_s, -1e-12, self.horizon_s)
+        check_in_interval("approach_radius_m", self.approach_radius_m, -1e-12, 1000.0)
+        check_in_interval("approach_clear_m", self.approach_clear_m, 0.0, 1000.0)
+        check_in_interval("approach_speed_m_s", self.approach_speed_m_s, 0.0, 100.0)
+
+    def dense(self, airborne: tuple[Neighbour, ...]) -> bool:
+        """The density switch: on, and at least ``min_airborne`` airborne claims."""
+        return self.enabled and len(airborne) >= self.min_airborne
 
     @property
     def enabled(self) -> bool:
@@ -109,7 +121,7 @@ def gate_neighbours(
     if not gate.enabled:
         return neighbours
     airborne = tuple(n for n in neighbours if not on_ground(n, ground_down_m))
-    if len(airborne) < gate.min_airborne:
+    if not gate.dense(airborne):
         return neighbours
     benign = [n for n in airborne if not n.flagged]
     if not benign:
