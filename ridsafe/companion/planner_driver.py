@@ -129,7 +129,7 @@ class PlannerDriver:
         if self._traffic_gate.enabled and home is not None:
             claims = gate_neighbours(
                 sim_now, lpn.p_ned_m, lpn.v_ned_m_s, goal, claims, self._traffic_gate,
-                self._cruise_speed_m_s, home.p_ned_m[2], self.spec.serial,
+                self._cruise_speed_m_s, home.p_ned_m[2],
             )  # fmt: skip
         planner_input = PlannerInput(
             t_s=sim_now,

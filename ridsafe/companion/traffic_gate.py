@@ -19,14 +19,6 @@ only the aircraft that are a conflict:
   (``q_j``, ``w_j``, ``t_j``: the claim's position, velocity and time; ``p``, ``v``: own;
   ``T`` = ``horizon_s``).
 
-Right of way (``right_of_way_s`` > 0): of two benign aircraft in conflict only one gives
-way, the one whose serial sorts later (in the family, the later launch). The other keeps a
-lower-priority aircraft only while it is near or closing to within ``miss_m`` in the next
-``right_of_way_s`` (a last-moment conflict that both avoid); otherwise it flies on as if
-alone, straight and predictable, which is what the yielding aircraft's planner assumes of it
-(it projects every neighbour along its Remote ID velocity). Two planners that both give way
-each predict the other flying straight, both turn, and in a crowd they dither.
-
 Aircraft that claim to stand on the ground (``pad_clearance.on_ground``) are left out too:
 they are parked on their pads. Claims flagged as spoofers pass untouched (the planner's
 policy decides about them).
@@ -60,9 +52,8 @@ class TrafficGate:
 
     min_airborne: int = 0
     near_m: float = 60.0
-    miss_m: float = 75.0
+    miss_m: float = 60.0
     horizon_s: float = 10.0
-    right_of_way_s: float = 0.0  # 0: every aircraft gives way to every other
     # Within this (horizontal) of the goal, fly straight at it when that keeps approach_clear_m
     # from every airborne aircraft (goal_approach.py); 0: leave the approach to the planner.
     approach_radius_m: float = 0.0
@@ -76,7 +67,6 @@ class TrafficGate:
             )
         for name in ("near_m", "miss_m", "horizon_s"):
             check_in_interval(name, getattr(self, name), 0.0, 10_000.0)
-        check_in_interval("right_of_way_s", self.right_of_way_s, -1e-12, self.horizon_s)
         check_in_interval("approach_radius_m", self.approach_radius_m, -1e-12, 1000.0)
         check_in_interval("approach_clear_m", self.approach_clear_m, 0.0, 1000.0)
         check_in_interval("approach_speed_m_s", self.approach_speed_m_s, 0.0, 100.0)
@@ -90,12 +80,10 @@ class TrafficGate:
         return self.min_airborne > 0
 
 
-def closest_approach_m(
-    r_m: FloatArray, u_m_s: FloatArray, horizon_s: float | FloatArray
-) -> FloatArray:
+def closest_approach_m(r_m: FloatArray, u_m_s: FloatArray, horizon_s: float) -> FloatArray:
     """d_cpa (module docstring) per row of relative positions ``r_m : (N, 3)`` and relative
-    velocities ``u_m_s : (N, 3)`` over (0, ``horizon_s``] (a scalar or one per row); inf
-    where the range does not shrink; (N,)."""
+    velocities ``u_m_s : (N, 3)`` over (0, ``horizon_s``]; inf where the range does not
+    shrink; (N,)."""
     u2 = np.einsum("ij,ij->i", u_m_s, u_m_s)
     ru = np.einsum("ij,ij->i", r_m, u_m_s)
     closing = (ru < 0.0) & (u2 > 0.0)
@@ -113,11 +101,9 @@ def gate_neighbours(
     gate: TrafficGate,
     speed_m_s: float,
     ground_down_m: float,
-    own_id: str = "",
 ) -> tuple[Neighbour, ...]:
     """The neighbours the planner should see (module docstring), in their given order;
-    ``speed_m_s`` is the cruise speed of the straight-at-the-goal motion, ``own_id`` the own
-    serial (the right of way compares it with the neighbours' ids)."""
+    ``speed_m_s`` is the cruise speed of the straight-at-the-goal motion."""
     if not gate.enabled:
         return neighbours
     airborne = tuple(n for n in neighbours if not on_ground(n, ground_down_m))
@@ -131,14 +117,9 @@ def gate_neighbours(
     w = np.array([n.v_ned_m_s for n in benign], dtype=np.float64)
     age = t_s - np.array([n.t_s for n in benign], dtype=np.float64)
     r = q + w * age[:, None] - p
-    near = np.linalg.norm(r, axis=1) < gate.near_m
-    horizon = np.full(len(benign), gate.horizon_s)
-    if gate.right_of_way_s > 0.0:
-        gives_way = np.array([n.uas_id > own_id for n in benign])
-        horizon[gives_way] = gate.right_of_way_s  # they give way to us
-    conflict = near
+    conflict = np.linalg.norm(r, axis=1) < gate.near_m
     for own_v in _own_motions(p, v_ned_m_s, goal_ned_m, speed_m_s):
-        conflict |= closest_approach_m(r, w - own_v, horizon) < gate.miss_m
+        conflict |= closest_approach_m(r, w - own_v, gate.horizon_s) < gate.miss_m
     keep = {id(n) for n, c in zip(benign, conflict, strict=True) if c}
     return tuple(n for n in airborne if n.flagged or id(n) in keep)
 

@@ -104,16 +104,3 @@ def test_closest_approach_matches_dense_sampling(
     sampled = float(np.min(np.linalg.norm(r_m + u_m_s * t, axis=1)))
     assert exact <= sampled + 1e-9
     assert exact >= sampled - 16.0 * 10.0 / 20_000 * np.sqrt(3.0)  # one sample step of |u|
-
-
-def test_right_of_way_one_of_two_gives_way() -> None:
-    """Head-on 150 m apart closing at 16 m/s (closest approach in 9.4 s): the aircraft with
-    the later serial gives way, the other keeps it only once the conflict is 4 s away."""
-    gate = TrafficGate(min_airborne=1, right_of_way_s=4.0)
-    head_on = (150.0, 0.0, -50.0), (-8.0, 0.0, 0.0)
-    later, earlier = _nb("C", *head_on), _nb("A", *head_on)
-    out = gate_neighbours(10.0, OWN_P, OWN_V, GOAL, (earlier, later), gate, 8.0, 0.0, "B")
-    assert [n.uas_id for n in out] == ["A"]
-    soon = _nb("C", (60.0, 0.0, -50.0), (-8.0, 0.0, 0.0))  # 3.75 s away
-    out = gate_neighbours(10.0, OWN_P, OWN_V, GOAL, (soon,), gate, 8.0, 0.0, "B")
-    assert [n.uas_id for n in out] == ["C"]
