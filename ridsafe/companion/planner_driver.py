@@ -12,10 +12,7 @@ With ``ignore_grounded_traffic`` the neighbours that claim to stand on the groun
 their pads, or delivered) are left out: they are no hazard to an aircraft in the air, and
 among dense traffic the planner otherwise crawls past the aircraft parked at a depot. With
 ``traffic_gate.min_airborne`` > 0, once that many airborne aircraft are heard, only those on a
-collision course or near are handed over (``traffic_gate``); with
-``traffic_gate.approach_radius_m`` > 0, near the goal, an avoiding planner's target is replaced
-by the goal itself when the straight approach keeps clear of every airborne aircraft and no
-unsafe region is about (``goal_approach``: the near-goal deadlock of crowded deliveries).
+collision course or near are handed over (``traffic_gate``).
 Every decision goes to ``/companion/decisions``. With ``pad_clearance_m`` > 0 it also tells
 the mission what covers its pad before take-off and while descending (``pad_clearance``),
 with the neighbours and regions the planner's policy lets in.
@@ -33,13 +30,11 @@ from ridsafe.common import messages as m
 from ridsafe.common import topics
 from ridsafe.companion.config import AUTOPILOT_COMPONENT, CompanionConfig, CompanionSpec
 from ridsafe.companion.events import CompanionLog
-from ridsafe.companion.goal_approach import straight_approach_clear
 from ridsafe.companion.mission import Phase
 from ridsafe.companion.mission_driver import MissionDriver
 from ridsafe.companion.neighbours import NeighbourTable
 from ridsafe.companion.pad_clearance import on_ground, pad_blocker
 from ridsafe.companion.planner_api import (
-    Neighbour,
     Planner,
     PlannerDecision,
     PlannerInput,
@@ -66,7 +61,6 @@ class PlannerCounters:
     planner_errors: int = 0
     plan_skipped: int = 0  # replan slots with no position or no home yet
     setpoints: int = 0
-    straight_approaches: int = 0  # decisions replaced by the dense-traffic straight approach
 
 
 class PlannerDriver:
@@ -125,7 +119,6 @@ class PlannerDriver:
         home = self.own.home
         if self._ignore_grounded and home is not None:
             claims = tuple(n for n in claims if not on_ground(n, home.p_ned_m[2]))
-        heard = claims
         if self._traffic_gate.enabled and home is not None:
             claims = gate_neighbours(
                 sim_now, lpn.p_ned_m, lpn.v_ned_m_s, goal, claims, self._traffic_gate,
@@ -144,40 +137,11 @@ class PlannerDriver:
         )
         start = time.perf_counter()
         decision = self._decide(now_s, planner_input)
-        if phase is Phase.CRUISE and home is not None:
-            decision = self._straight_approach(planner_input, heard, home.p_ned_m[2], decision)
         compute_ms = (time.perf_counter() - start) * 1e3
         self.last_decision = decision
         self.counters.decisions += 1
         send(self._target(now_s, decision.target_p_ned_m, decision.target_v_ned_m_s))
         self._log_decision(planner_input, decision, compute_ms)
-
-    def _straight_approach(
-        self,
-        planner_input: PlannerInput,
-        heard: tuple[Neighbour, ...],
-        ground_down_m: float,
-        decision: PlannerDecision,
-    ) -> PlannerDecision:
-        """Among dense traffic, near the goal, with no region about: the goal itself when the
-        planner avoids but the straight approach is clear (``goal_approach``)."""
-        gate = self._traffic_gate
-        p, goal = planner_input.p_ned_m, planner_input.goal_ned_m
-        if (
-            gate.approach_radius_m <= 0.0
-            or decision.status not in _APPROACH_OVERRIDES
-            or planner_input.regions
-            or math.hypot(goal[0] - p[0], goal[1] - p[1]) > gate.approach_radius_m
-        ):
-            return decision
-        airborne = tuple(n for n in heard if not n.flagged and not on_ground(n, ground_down_m))
-        if not gate.dense(airborne) or not straight_approach_clear(
-            planner_input.t_s, p, goal, airborne, gate.approach_speed_m_s, gate.approach_clear_m
-        ):
-            return decision
-        self.counters.straight_approaches += 1
-        detail = "approach the goal (dense traffic, the straight approach is clear)"
-        return PlannerDecision(goal, _ZERO, decision.status, decision.value, detail)
 
     def _pad_check_due(self, now_s: float, mission: MissionDriver) -> bool:
         if self._pad_clearance_m <= 0.0 or mission.phase not in _PAD_PHASES:
@@ -261,5 +225,4 @@ class PlannerDriver:
 
 
 _ACTIVE = frozenset({Phase.CRUISE, Phase.DESCEND, Phase.HOVER})
-_APPROACH_OVERRIDES = frozenset({PlannerStatus.AVOIDING, PlannerStatus.STUCK})
 _PAD_PHASES = frozenset({Phase.WAIT_DEPARTURE, Phase.DESCEND})
