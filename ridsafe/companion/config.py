@@ -22,6 +22,7 @@ from ridsafe.common import frames
 from ridsafe.common.checks import check_in_interval
 from ridsafe.common.errors import FieldValueError
 from ridsafe.common.scenario import Scenario, check_cta2063_serial
+from ridsafe.companion.traffic_gate import TrafficGate
 
 __all__ = [
     "AUTOPILOT_COMPONENT",
@@ -116,6 +117,10 @@ class CompanionConfig:
     # Aircraft whose Remote ID puts them on the ground (within 1 m of home level, still) are
     # not handed to the planner as traffic (planner_driver.py); False hands every claim.
     ignore_grounded_traffic: bool = False
+    # Dense traffic (companion/traffic_gate.py): while at least traffic_gate.min_airborne
+    # airborne aircraft are heard, the planner sees only those on a collision course or near;
+    # min_airborne 0 (the default) hands every claim.
+    traffic_gate: TrafficGate = field(default_factory=TrafficGate)
     # -- loops ------------------------------------------------------------------------------
     replan_period_s: float = 0.5
     observation_batch_s: float = 0.25

@@ -10,7 +10,9 @@ planner that raises or returns a non-finite target holds position instead, and t
 logged and counted.
 With ``ignore_grounded_traffic`` the neighbours that claim to stand on the ground (parked on
 their pads, or delivered) are left out: they are no hazard to an aircraft in the air, and
-among dense traffic the planner otherwise crawls past the aircraft parked at a depot.
+among dense traffic the planner otherwise crawls past the aircraft parked at a depot. With
+``traffic_gate.min_airborne`` > 0, once that many airborne aircraft are heard, only those on a
+collision course or near are handed over (``traffic_gate``).
 Every decision goes to ``/companion/decisions``. With ``pad_clearance_m`` > 0 it also tells
 the mission what covers its pad before take-off and while descending (``pad_clearance``),
 with the neighbours and regions the planner's policy lets in.
@@ -43,6 +45,7 @@ from ridsafe.companion.regions import RegionStore
 from ridsafe.companion.rid import Periodic
 from ridsafe.companion.stale_regions import held_regions
 from ridsafe.companion.telemetry import OwnTelemetry
+from ridsafe.companion.traffic_gate import gate_neighbours
 
 __all__ = ["PlannerCounters", "PlannerDriver"]
 
@@ -85,6 +88,8 @@ class PlannerDriver:
         self._pad_ceiling_m = config.pad_ceiling_m
         self._pad_timer = Periodic(config.replan_period_s)
         self._ignore_grounded = config.ignore_grounded_traffic
+        self._traffic_gate = config.traffic_gate
+        self._cruise_speed_m_s = config.cruise_speed_m_s
 
     def step(
         self,
@@ -114,6 +119,11 @@ class PlannerDriver:
         home = self.own.home
         if self._ignore_grounded and home is not None:
             claims = tuple(n for n in claims if not on_ground(n, home.p_ned_m[2]))
+        if self._traffic_gate.enabled and home is not None:
+            claims = gate_neighbours(
+                sim_now, lpn.p_ned_m, lpn.v_ned_m_s, goal, claims, self._traffic_gate,
+                self._cruise_speed_m_s, home.p_ned_m[2],
+            )  # fmt: skip
         planner_input = PlannerInput(
             t_s=sim_now,
             p_ned_m=lpn.p_ned_m,

@@ -1,26 +1,33 @@
-"""The depot jam of dense traffic, reproduced small: aircraft parked on the pads around a
-departing aircraft broadcast Remote ID from the ground, and the planner, taking them for
-traffic, crawls off its pad (at 64 aircraft a depot holds up to 21 parked aircraft; leaving
-took 17 s on average and up to 48 s, against 11 s alone). With
-``companion.ignore_grounded_traffic`` they are left out and the delivery is on time.
+"""The jams of dense traffic, reproduced small (lockstep, no shadowing: deterministic).
 
-The run is deterministic (lockstep, no shadowing): the same arrival every time.
+- Depot: aircraft parked on the pads around a departing aircraft broadcast Remote ID from the
+  ground, and the planner, taking them for traffic, crawls off its pad (at 64 aircraft a depot
+  holds up to 21 parked aircraft; leaving took 17 s on average and up to 48 s, against 11 s
+  alone). With ``companion.ignore_grounded_traffic`` they are left out and the delivery is on
+  time.
+- Parallel lanes: aircraft flying side by side 80 m apart are within the planner's d_safe of
+  each other the whole way, push each other off their tracks and arrive up to 6 s late. With
+  ``companion.traffic_gate`` (companion/traffic_gate.py) the planner sees only aircraft on a
+  collision course or near, and all arrive together, on time.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 from pathlib import Path
 
 import pytest
 
 from ridsafe.common.config import load_config
+from ridsafe.companion.traffic_gate import TrafficGate
 from ridsafe.tools.analysis.metrics import arrival_times_s
 from ridsafe.tools.analysis.run_arrays import load_run
 from ridsafe.tools.run.lockstep import run_lockstep
 from ridsafe.tools.run.scenario import ScenarioFile
 
 DEPOT_JAM = Path(__file__).with_name("depot_jam.yaml")
+PARALLEL_LANES = Path(__file__).with_name("parallel_lanes.yaml")
 NOMINAL_ARRIVAL_S = 4.0 + 300.0 / 8.0  # take-off, then 300 m at 8 m/s
 
 
@@ -39,3 +46,25 @@ def test_parked_aircraft_jam_the_departure_unless_left_out(tmp_path: Path) -> No
     free = _arrival_s(tmp_path, ignore_grounded=True)
     assert free is not None and free <= NOMINAL_ARRIVAL_S + 6.0
     assert jammed is None or jammed >= free + 5.0  # today: 53.7 s against 45.4 s
+
+
+def _lane_arrivals_s(tmp_path: Path, gate: TrafficGate) -> list[float | None]:
+    loaded = load_config(PARALLEL_LANES, ScenarioFile)
+    loaded = dataclasses.replace(
+        loaded, companion=dataclasses.replace(loaded.companion, traffic_gate=gate)
+    )
+    out = tmp_path / f"lanes-{gate.min_airborne}.mcap"
+    run_lockstep(loaded, "aware", out, recorder_process=False)
+    arrivals = arrival_times_s(load_run(out))
+    return [arrivals.get(sysid) for sysid in range(1, 6)]
+
+
+@pytest.mark.slow
+def test_parallel_lanes_jam_unless_the_gate_hands_only_conflicts(tmp_path: Path) -> None:
+    nominal_s = 4.0 + 450.0 / 8.0
+    jammed = _lane_arrivals_s(tmp_path, TrafficGate())
+    gated = _lane_arrivals_s(tmp_path, TrafficGate(min_airborne=2))
+    assert all(t is not None and t <= nominal_s + 6.0 for t in gated)
+    latest_gated = max(t for t in gated if t is not None)
+    latest_jammed = max(math.inf if t is None else t for t in jammed)
+    assert latest_jammed >= latest_gated + 4.0  # today: 71.1 s against 65.2 s
