@@ -15,6 +15,7 @@ from ridsafe.gcs.calibration.pipeline import CalibratingPipeline, make_pipeline,
 from ridsafe.gcs.pipeline import EstimationPipeline
 from ridsafe.gcs.pipeline_api import ObservedClaim, readonly
 from ridsafe.gcs.pipeline_config import PipelineConfig
+from tests.gcs.claims import free_space_claim
 
 CFG = CalibrationConfig(enabled=True, min_samples=200, min_time_s=0.0)
 
@@ -58,25 +59,6 @@ def test_fit_is_robust_to_deep_fades() -> None:
     assert est.sigma_db > 4.0
 
 
-def _claim(
-    uas_id: str, t: float, claimed: list[float], rx: dict[int, list[float]]
-) -> ObservedClaim:
-    ids = np.array(sorted(rx), dtype=np.int64)
-    p = np.array([rx[i] for i in sorted(rx)])
-    d = np.linalg.norm(p - np.array(claimed), axis=1)
-    rssi = 20.0 - 40.04 - 20 * np.log10(np.maximum(d, 1.0))
-    return ObservedClaim(
-        uas_id,
-        t,
-        readonly(claimed),
-        None,
-        ids,
-        readonly(p),
-        readonly(np.full(len(ids), t)),
-        readonly(rssi),
-    )
-
-
 def test_labeller_finds_cooperative_aircraft_and_not_the_spoofer() -> None:
     positions = {1: [0.0, 0.0, 50.0], 2: [300.0, 0.0, 60.0], 3: [0.0, 400.0, 70.0]}
     lab = CooperativeLabeller(CFG)
@@ -84,9 +66,9 @@ def test_labeller_finds_cooperative_aircraft_and_not_the_spoofer() -> None:
         t = float(k)
         for sysid, p in positions.items():
             others = {i: q for i, q in positions.items() if i != sysid}
-            lab.observe(_claim(f"RID{sysid}", t, p, others))
+            lab.observe(free_space_claim(f"RID{sysid}", t, p, others))
         # The spoofer claims a place 50 m from anyone and is heard by all three.
-        lab.observe(_claim("SPOOF", t, [150.0, 150.0, 60.0], positions))
+        lab.observe(free_space_claim("SPOOF", t, [150.0, 150.0, 60.0], positions))
     assert lab.labels() == {"RID1": 1, "RID2": 2, "RID3": 3}
     # The first min_matches - 1 matches only vote; later ones give samples (2 receivers
     # each). RID1's first claim matches nobody: nobody had reported RID1's position yet.
@@ -97,7 +79,9 @@ def test_labeller_finds_cooperative_aircraft_and_not_the_spoofer() -> None:
 def test_to_free_space_undoes_exponent_and_bias() -> None:
     tx, rx, d, rssi, _, _ = _synthetic(3, 3.0, 3.0, 0.01)
     est = fit_channel(tx, rx, d, rssi, CFG)
-    claim = _claim("X", 0.0, [0.0, 0.0, 50.0], {1: [100.0, 0.0, 50.0], 2: [0.0, 700.0, 50.0]})
+    claim = free_space_claim(
+        "X", 0.0, [0.0, 0.0, 50.0], {1: [100.0, 0.0, 50.0], 2: [0.0, 700.0, 50.0]}
+    )
     raw = claim.rssi_dbm * 1.5 + est.bias_of(claim.rx_sysid)  # exponent 3 from exponent 2
     mapped = to_free_space(
         ObservedClaim(
@@ -124,7 +108,9 @@ def test_make_pipeline_honours_the_enable_flag() -> None:
     on = make_pipeline(PipelineConfig(calibration=CFG))
     assert isinstance(on, CalibratingPipeline)
     # Before calibrating it holds claims and answers nothing.
-    out = on.step(0.25, [_claim("SPOOF", 0.0, [150.0, 150.0, 60.0], {1: [0.0, 0.0, 50.0]})])
+    out = on.step(
+        0.25, [free_space_claim("SPOOF", 0.0, [150.0, 150.0, 60.0], {1: [0.0, 0.0, 50.0]})]
+    )
     assert out.alert_changes == () and out.regions == ()
 
 

@@ -13,31 +13,13 @@ from ridsafe.gcs.calibration.cooperative import CooperativeLabeller
 from ridsafe.gcs.calibration.pipeline import CalibratingPipeline, airborne_receptions
 from ridsafe.gcs.calibration.review import CalibratedReview, SlidingMax
 from ridsafe.gcs.pipeline import EstimationPipeline
-from ridsafe.gcs.pipeline_api import DetectorResult, ObservedClaim, readonly
+from ridsafe.gcs.pipeline_api import DetectorResult, ObservedClaim
 from ridsafe.gcs.pipeline_config import PipelineConfig
 from ridsafe.gcs.synthetic.traffic import CYCLE_S, SPOOFER_ID, Scene, make_traffic
+from tests.gcs.claims import free_space_claim
 
 CFG = CalibrationConfig(enabled=True, min_samples=10, min_time_s=0.0, null_min_claims=3)
 POSITIONS = {1: [0.0, 0.0, 50.0], 2: [300.0, 0.0, 60.0], 3: [0.0, 400.0, 70.0]}
-
-
-def _claim(
-    uas_id: str, t: float, claimed: list[float], rx: dict[int, list[float]]
-) -> ObservedClaim:
-    ids = np.array(sorted(rx), dtype=np.int64)
-    p = np.array([rx[i] for i in sorted(rx)])
-    d = np.linalg.norm(p - np.array(claimed), axis=1)
-    rssi = 20.0 - 40.04 - 20 * np.log10(np.maximum(d, 1.0))
-    return ObservedClaim(
-        uas_id,
-        t,
-        readonly(claimed),
-        None,
-        ids,
-        readonly(p),
-        readonly(np.full(len(ids), t)),
-        readonly(rssi),
-    )
 
 
 def _labelled(cfg: CalibrationConfig = CFG) -> CooperativeLabeller:
@@ -45,13 +27,13 @@ def _labelled(cfg: CalibrationConfig = CFG) -> CooperativeLabeller:
     for k in range(5):
         for sysid, p in POSITIONS.items():
             others = {i: q for i, q in POSITIONS.items() if i != sysid}
-            lab.observe(_claim(f"RID{sysid}", float(k), p, others))
+            lab.observe(free_space_claim(f"RID{sysid}", float(k), p, others))
     return lab
 
 
 def _stranger(t: float) -> ObservedClaim:
     """An unlabelled serial claiming a place 150 m from every aircraft."""
-    return _claim("STRANGER", t, [150.0, 150.0, 60.0], POSITIONS)
+    return free_space_claim("STRANGER", t, [150.0, 150.0, 60.0], POSITIONS)
 
 
 def _result(uas_id: str, statistic: float, threshold: float = 6.0) -> DetectorResult:
@@ -74,11 +56,11 @@ def test_sliding_max_matches_brute_force() -> None:
 def test_labeller_vouches_only_for_claims_where_the_aircraft_is() -> None:
     lab = _labelled()
     others = {i: q for i, q in POSITIONS.items() if i != 1}
-    assert lab.vouches(_claim("RID1", 5.0, [10.0, 0.0, 50.0], others))
+    assert lab.vouches(free_space_claim("RID1", 5.0, [10.0, 0.0, 50.0], others))
     # The same serial claimed 100 m from where aircraft 1 reports being: not vouched.
-    assert not lab.vouches(_claim("RID1", 5.0, [100.0, 0.0, 50.0], others))
+    assert not lab.vouches(free_space_claim("RID1", 5.0, [100.0, 0.0, 50.0], others))
     # An unlabelled serial at aircraft 1's position: not vouched either.
-    assert not lab.vouches(_claim("OTHER", 5.0, [0.0, 0.0, 50.0], others))
+    assert not lab.vouches(free_space_claim("OTHER", 5.0, [0.0, 0.0, 50.0], others))
 
 
 def test_review_vetoes_vouched_claims_and_raises_the_threshold_for_the_others() -> None:
@@ -88,7 +70,9 @@ def test_review_vetoes_vouched_claims_and_raises_the_threshold_for_the_others() 
     # Before the null has seen null_min_claims vouched claims nothing may alert.
     assert not review(_stranger(5.0), (_result("STRANGER", 50.0),))[0].decision
     for k in range(3):  # vouched claims whose MLAT statistic is 10 (over the threshold 6)
-        out = review(_claim("RID2", 5.0 + k, POSITIONS[2], others), (_result("RID2", 10.0),))
+        out = review(
+            free_space_claim("RID2", 5.0 + k, POSITIONS[2], others), (_result("RID2", 10.0),)
+        )
         assert out[0].statistic == 10.0 and not out[0].decision
     assert review.null_statistic(RidsafeDetector.MLAT, 8.0) == 10.0
     # A stranger at 11 beats the nominal threshold but not 1.25 x the null's 10.
@@ -115,12 +99,17 @@ def test_localisation_inflation_recovers_the_scale_of_chi2_3(scale: float) -> No
     rng = np.random.default_rng(1)
     stats = _surprisal(scale * rng.chisquare(3, 600))
     for k, s in enumerate(stats):
-        review(_claim("RID3", 5.0 + 0.01 * k, POSITIONS[3], others), (_result("RID3", float(s)),))
+        review(
+            free_space_claim("RID3", 5.0 + 0.01 * k, POSITIONS[3], others),
+            (_result("RID3", float(s)),),
+        )
     assert review.localisation_inflation(12.0) == pytest.approx(scale, rel=0.15)
 
 
 def test_airborne_receptions_drop_grounded_receivers() -> None:
-    claim = _claim("X", 0.0, [0.0, 0.0, 60.0], {1: [100.0, 0.0, 0.0], 2: [0.0, 200.0, 50.0]})
+    claim = free_space_claim(
+        "X", 0.0, [0.0, 0.0, 60.0], {1: [100.0, 0.0, 0.0], 2: [0.0, 200.0, 50.0]}
+    )
     assert airborne_receptions(claim, 0.0) is claim
     kept = airborne_receptions(claim, 3.0)
     assert kept.rx_sysid.tolist() == [2] and kept.rssi_dbm[0] == claim.rssi_dbm[1]
