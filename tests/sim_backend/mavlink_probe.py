@@ -41,6 +41,19 @@ class Probe:
                 return msg
         return None
 
+    def guided_waypoint(self, lat_e7: int, lon_e7: int, alt_m: float) -> int | None:
+        """MISSION_ITEM_INT current=2 (fly there in GUIDED): the MISSION_ACK type, or None.
+        Resent while unanswered, as a client does under the mission protocol."""
+        for _ in range(3):
+            self.conn.mav.mission_item_int_send(
+                self.conn.target_system, 1, 0, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, 16, 2, 0,
+                0, 0, 0, 0, lat_e7, lon_e7, alt_m, 0,
+            )  # fmt: skip
+            ack = self.wait("MISSION_ACK")
+            if ack is not None:
+                return int(ack.type)
+        return None
+
     def ack(self, command: int, timeout_s: float = 5.0) -> int | None:
         msg = self.wait("COMMAND_ACK", timeout_s, command=command)
         return None if msg is None else int(msg.result)
@@ -140,12 +153,7 @@ def ask(port: int, ready_text: str | None = None, ready_timeout_s: float = 120.0
         probe.command_long(22, 0, 0, 0, 0, 0, 0, 10.0)  # take off to 10 m
         time.sleep(3.0)
         here = probe.wait("GLOBAL_POSITION_INT")
-        probe.conn.mav.mission_item_int_send(
-            probe.conn.target_system, 1, 0, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, 16, 2, 0,
-            0, 0, 0, 0, here.lat + 200, here.lon, 12.0, 0,
-        )  # fmt: skip
-        ack = probe.wait("MISSION_ACK")
-        answers["guided MISSION_ITEM_INT"] = None if ack is None else int(ack.type)
+        answers["guided MISSION_ITEM_INT"] = probe.guided_waypoint(here.lat + 200, here.lon, 12.0)
         probe.conn.mav.command_int_send(
             probe.conn.target_system, 1, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, 192, 0, 0,
             -1, 1, 0, 0, here.lat, here.lon + 200, 12.0,
