@@ -114,6 +114,8 @@ def ask(port: int, ready_text: str | None = None, ready_timeout_s: float = 120.0
         if ready_text is not None:
             deadline = time.monotonic() + ready_timeout_s
             while time.monotonic() < deadline:
+                # ArduPilot sends STATUSTEXT only on links it has heard from: say we are here
+                probe.conn.mav.heartbeat_send(mav.MAV_TYPE_GCS, mav.MAV_AUTOPILOT_INVALID, 0, 0, 0)
                 text = probe.wait("STATUSTEXT", 1.0)
                 if text is not None and ready_text in text.text:
                     break
