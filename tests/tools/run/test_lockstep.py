@@ -16,6 +16,7 @@ from ridsafe.tools.analysis.metrics import compute_metrics
 from ridsafe.tools.run.lockstep import run_lockstep
 from ridsafe.tools.run.scenario import ScenarioFile, load_scenario_file
 from ridsafe.tools.runlog.reader import read_records
+from tests.signals import keyboard_interrupt_on_sigint
 from tests.tools.run.output_watch import FLYING, OutputWatch
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -103,10 +104,11 @@ def test_ctrl_c_ends_the_run_and_its_recorder_with_a_valid_log(tmp_path: Path) -
     out = tmp_path / "out"
     argv = [sys.executable, "-m", "ridsafe.tools.cli", "run", "--mode", "lockstep"]
     argv += ["--out", str(out), "--aircraft", "16", "--duration", "600"]
-    proc = subprocess.Popen(
-        argv, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-        start_new_session=True,
-    )  # fmt: skip
+    with keyboard_interrupt_on_sigint():  # the child gets Ctrl-C however pytest was started
+        proc = subprocess.Popen(
+            argv, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+            start_new_session=True,
+        )  # fmt: skip
     watch = OutputWatch(proc)
     watch.wait_for(FLYING, timeout_s=240.0)  # kernels compiled or loaded, the clock running
     os.killpg(proc.pid, signal.SIGINT)
