@@ -9,7 +9,9 @@ no display needed.
   agents").
 - :func:`nmac_vs_density`: total and benign-spoofer NMACs (mean +/- std) against density,
   ours and the published values.
-- :func:`report_plots`: both, for ``ridsafe report``.
+- :func:`detector_roc_plot`: each detector's ROC curve (``analysis.detector_roc``), its AUC
+  and the logged decisions' operating point, false positive rate on a log axis.
+- :func:`report_plots`: all three, for ``ridsafe report``.
 
 Each run's series is resampled onto a common grid by holding its last sample (no value more
 than ``max_gap_s`` old; NaN before a run's first sample, e.g. before the alert).
@@ -28,6 +30,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
+from ridsafe.tools.analysis.detector_roc import DetectorRoc
 from ridsafe.tools.analysis.series import MetricSeries, metric_series
 from ridsafe.tools.analysis.sweep_results import PLANNER_LABELS, Cell, SweepResults, planner_order
 from ridsafe.tools.sweep.folder import LOG_FILE
@@ -36,6 +39,7 @@ __all__ = [
     "DensityCurve",
     "band",
     "density_curves",
+    "detector_roc_plot",
     "fig3",
     "hold_on_grid",
     "nmac_vs_density",
@@ -162,6 +166,40 @@ def nmac_vs_density(panels: Mapping[str, Sequence[DensityCurve]], path: Path) ->
     return path
 
 
+#: The false positive rate axis starts here (log scale; a rate of 0 is drawn at it).
+ROC_FPR_FLOOR = 1e-5
+
+
+def detector_roc_plot(rocs: Sequence[DetectorRoc], path: Path, title: str) -> Path:
+    """Each detector's ROC curve (FPR on a log axis) with its AUC; a marker at the operating
+    point of the logged decisions; the chance line dotted."""
+    fig = Figure(figsize=(6.5, 5.0), layout="constrained")
+    ax = fig.add_subplot()
+    for k, roc in enumerate(rocs):
+        colour = _COLOURS[k % len(_COLOURS)]
+        fpr = np.maximum(roc.false_positive_rate, ROC_FPR_FLOOR)
+        ax.step(
+            fpr,
+            roc.true_positive_rate,
+            where="post",
+            color=colour,
+            label=f"{roc.detector} (AUC {roc.auc:.3f})",
+        )
+        ax.plot(max(roc.operating_fpr, ROC_FPR_FLOOR), roc.operating_tpr, "o", color=colour)
+    chance = np.logspace(np.log10(ROC_FPR_FLOOR), 0.0, 50)
+    ax.plot(chance, chance, ":", color="grey", label="chance")
+    ax.set_xscale("log")
+    ax.set_xlim(ROC_FPR_FLOOR, 1.0)
+    ax.set_ylim(0.0, 1.01)
+    ax.set_xlabel(f"false positive rate (benign claims flagged; {ROC_FPR_FLOOR:g} = none)")
+    ax.set_ylabel("true positive rate (liars' claims flagged)")
+    ax.set_title(title)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(loc="lower right", fontsize="small")
+    fig.savefig(path, dpi=110)
+    return path
+
+
 # --------------------------------------------------------------------------------------------
 # The report's plots
 
@@ -175,10 +213,15 @@ def _slug(text: str) -> str:
 
 
 def report_plots(
-    sweeps: Sequence[SweepResults], cells: Sequence[Cell], out: Path, fig3_density: int = 16
+    sweeps: Sequence[SweepResults],
+    cells: Sequence[Cell],
+    out: Path,
+    fig3_density: int = 16,
+    rocs: Mapping[str, Sequence[DetectorRoc]] | None = None,
 ) -> list[Path]:
     """Fig. 3 per sweep variant (at ``fig3_density`` aircraft, else the largest density it
-    has), from ``metric_series`` of each run's log; NMACs against density from ``cells``."""
+    has), from ``metric_series`` of each run's log; NMACs against density from ``cells``;
+    the detectors' ROC per variant label of ``rocs``."""
     paths = []
     for sweep in sweeps:
         for params, label in sweep.variants():
@@ -200,12 +243,16 @@ def report_plots(
         "Benign-spoofer NMACs": density_curves(cells, "nmac_benign_spoofer"),
     }
     paths.append(nmac_vs_density(panels, out / "nmac_vs_density.png"))
+    for label, variant_rocs in (rocs or {}).items():
+        if variant_rocs:
+            title = f"{label}: detectors, every claim of every run"
+            paths.append(detector_roc_plot(variant_rocs, out / f"roc_{_slug(label)}.png", title))
     return paths
 
 
 def density_curves(cells: Sequence[Cell], key: str) -> list[DensityCurve]:
     """Per planner: the published curve (dashed) and one per variant (colour = planner)."""
-    chosen = [c for c in cells if c.row.key == key]
+    chosen = [c for c in cells if c.row.key == key and c.row.summary == "mean"]
     variants = list(dict.fromkeys(c.variant for c in chosen))
     curves: list[DensityCurve] = []
     for planner in planner_order({c.planner for c in chosen}):

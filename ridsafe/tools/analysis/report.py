@@ -3,8 +3,10 @@
 Input: one or more sweep folders (``ridsafe sweep``), e.g. our defaults and paper mode, read by
 ``analysis.sweep_results`` (which results count, and how a cell is computed). Outputs:
 ``report.md`` (tables in the paper's layout: metrics x densities, planners in blocks; ``(n=k)``
-marks cells where fewer runs than completed have the metric), ``report.csv`` (one row per
-cell), and the plots of :mod:`ridsafe.tools.analysis.plots`.
+marks cells where fewer runs than completed have the metric; the detectors' ROC AUC and
+operating point per sweep variant, ``analysis.detector_roc``), ``report.csv`` (one row per
+cell; ``summary``: mean, median, p90 or max over the runs), and the plots of
+:mod:`ridsafe.tools.analysis.plots`.
 """
 
 from __future__ import annotations
@@ -12,22 +14,25 @@ from __future__ import annotations
 import csv
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 from ridsafe.tools.analysis.adversary_report import adversary_section
+from ridsafe.tools.analysis.detector_roc import DetectorRoc, detector_rocs, roc_rows
 from ridsafe.tools.analysis.published import PUBLISHED_RUNS
 from ridsafe.tools.analysis.sweep_results import (
     PLANNER_LABELS,
     ROWS,
     Cell,
     ReportError,
+    Row,
     Stat,
     SweepResults,
     load_sweep,
     summarise,
 )
+from ridsafe.tools.sweep.folder import LOG_FILE
 
 __all__ = ["CSV_HEADER", "ReportFiles", "render_markdown", "write_csv", "write_report"]
 
@@ -64,10 +69,10 @@ def _section_rows(cells: Sequence[Cell], section: str) -> list[list[str]]:
     ours and the difference; (metric, planner) pairs with no number anywhere are left out."""
     rows: list[list[str]] = []
     densities = sorted({c.density for c in cells})
-    blocks: dict[tuple[str, str], list[Cell]] = {}
+    blocks: dict[tuple[Row, str], list[Cell]] = {}
     for cell in cells:
         if cell.row.section == section:
-            blocks.setdefault((cell.row.key, cell.planner), []).append(cell)
+            blocks.setdefault((cell.row, cell.planner), []).append(cell)
     for block in blocks.values():
         if all(c.ours is None and c.published is None for c in block):
             continue
@@ -119,14 +124,18 @@ def _sweep_row(s: SweepResults) -> list[str]:
 
 
 def render_markdown(
-    sweeps: Sequence[SweepResults], cells: Sequence[Cell], plots: Sequence[Path]
+    sweeps: Sequence[SweepResults],
+    cells: Sequence[Cell],
+    plots: Sequence[Path],
+    rocs: Mapping[str, Sequence[DetectorRoc]] | None = None,
 ) -> str:
     densities = sorted({c.density for c in cells})
     lines = ["# Sweep report", ""]
     lines += _table(_SWEEP_HEADER, [_sweep_row(s) for s in sweeps])
     lines += [
         "",
-        "Cells: mean ± sample std over completed runs ((n=k): only k of them have the metric). "
+        "Cells: mean ± sample std over completed runs ((n=k): only k of them have the metric), "
+        "or, where the metric says so, the runs' median, 90th percentile or worst value. "
         f"published: the paper's value ({PUBLISHED_RUNS} runs per cell). Δ: ours - published, "
         "z = Δ / sqrt(s²/n + s_pub²/30) (|z| > 2: unlikely to be chance). n/a: no number. "
         "The published runs flew 120 s; stale: results of another config, ignored.",
@@ -139,6 +148,20 @@ def render_markdown(
         if rows:
             lines += ["", f"## {section}", "", *_table(header, rows)]
     lines += adversary_section(sweeps)  # issue 16's attack cells, if the sweep has them
+    rows = [
+        row for label, variant_rocs in (rocs or {}).items() for row in roc_rows(label, variant_rocs)
+    ]
+    if rows:
+        lines += ["", "## Detectors (ROC from the logged statistics)", ""]
+        lines += [
+            "Every claim each detector tested, in every run of the variant (both planners): a "
+            "liar's claim (a serial no benign aircraft has) flagged is a true positive, a "
+            "benign aircraft's a false positive. AUC: P(a liar's statistic > a benign one's). "
+            "Operating point: the rates of the logged decisions (the thresholds the GCS used).",
+            "",
+        ]
+        roc_header = ("variant", "detector", "claims (liars / benign)", "AUC", "TPR", "FPR")
+        lines += _table(roc_header, rows)
     if plots:
         lines += ["", "## Plots", ""] + [f"![{p.stem}]({p.name})" for p in plots]
     problems = [(s.label, *p) for s in sweeps for p in s.problems]
@@ -169,6 +192,7 @@ CSV_HEADER = (
     "section",
     "metric",
     "metric_key",
+    "summary",
     "planner",
     "density",
     "variant",
@@ -190,7 +214,8 @@ def _num(value: float | None) -> str:
 def _csv_row(c: Cell) -> list[object]:
     ours = [] if c.ours is None else [c.ours.n, _num(c.ours.mean), _num(c.ours.std)]
     pub = [] if c.published is None else [_num(c.published.mean), _num(c.published.std)]
-    head = [c.row.section, c.row.label, c.row.key, c.planner, c.density, c.variant, c.runs]
+    row = c.row
+    head = [row.section, row.label, row.key, row.summary, c.planner, c.density, c.variant, c.runs]
     return [*head, *(ours or ["", "", ""]), *(pub or ["", ""]), _num(c.diff), _num(c.z)]
 
 
@@ -229,11 +254,16 @@ def write_report(
         raise ReportError(f"no completed runs in {', '.join(map(str, sweep_dirs))}")
     out.mkdir(parents=True, exist_ok=True)
     cells = summarise(sweeps)
+    rocs = {
+        label: detector_rocs(r.run_dir / LOG_FILE for r in sweep.records if r.params == params)
+        for sweep in sweeps
+        for params, label in sweep.variants()
+    }
     plot_paths: list[Path] = []
     if with_plots:
         from ridsafe.tools.analysis.plots import report_plots  # noqa: PLC0415 (matplotlib only here)
 
-        plot_paths = report_plots(sweeps, cells, out, fig3_density)
+        plot_paths = report_plots(sweeps, cells, out, fig3_density, rocs)
     markdown = out / "report.md"
-    markdown.write_text(render_markdown(sweeps, cells, plot_paths), encoding="utf-8")
+    markdown.write_text(render_markdown(sweeps, cells, plot_paths, rocs), encoding="utf-8")
     return ReportFiles(markdown, write_csv(cells, out / "report.csv"), tuple(plot_paths))

@@ -12,6 +12,8 @@ Every cell is the mean +/- sample std (ddof 1, as the paper: 0.300 +/- 0.466 is 
 the completed runs of one (sweep, parameter values, planner, density) that have the metric;
 beside it the published value (``analysis.published``), the difference ours - published and
 ``z = diff / sqrt(s^2/n + s_pub^2/30)`` (Welch's statistic: |z| > 2 is unlikely by chance).
+A row may instead summarise the runs by their median, 90th percentile or worst value (the
+detection delay's distribution); such a cell has no std and no published value.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
@@ -49,6 +52,7 @@ __all__ = [
     "Row",
     "RunRecord",
     "Stat",
+    "Summary",
     "SweepResults",
     "load_sweep",
     "metric_value",
@@ -63,18 +67,29 @@ PLANNER_LABELS: Mapping[str, str] = {"aware": "SA (aware)", "trust-rid": "Trust-
 _PLANNER_ORDER = ("aware", "trust-rid")
 
 
+#: How a cell summarises its runs: mean +/- sample std, or one order statistic.
+Summary = Literal["mean", "median", "p90", "max"]
+
+
 @dataclass(frozen=True)
 class Row:
     key: str  # a metric of run_metrics, or "total_nmac"
     label: str
     section: str
     digits: int = 3
+    summary: Summary = "mean"
+    # the published row this one is compared with (default: key); only for summary "mean"
+    published_key: str | None = None
 
 
 SAFETY = "Safety (paper Table 2)"
 LOCALISATION = "Localisation (paper Table 2; the paper reports SA only)"
 COST = "Computation per run (paper Table 3; the paper ran OMNeT++ on 2 x 16 Xeon cores)"
 EXTRA = "Not reported by the paper"
+PAPER_DEFINITIONS = (
+    "Table 2 by the paper's own definitions (analysis/paper_metrics.py: 0.25 s ticks, arrived "
+    "aircraft excluded, the published region's centre, the time-mean largest semi-axis)"
+)
 ROWS: tuple[Row, ...] = (
     Row("total_nmac", "Total NMACs", SAFETY),
     Row("nmac_benign_benign", "Benign-benign NMACs", SAFETY),
@@ -89,11 +104,31 @@ ROWS: tuple[Row, ...] = (
     Row("goal_reached_fraction", "Goal reached (fraction)", EXTRA),
     Row("alert_time_s", "Detection time (s)", EXTRA, 2),
     Row("detection_delay_s", "Detection delay after 4 aircraft heard it (s)", EXTRA, 2),
+    Row("detection_delay_s", "Detection delay, median (s)", EXTRA, 2, "median"),
+    Row("detection_delay_s", "Detection delay, 90th percentile (s)", EXTRA, 2, "p90"),
+    Row("detection_delay_s", "Detection delay, worst (s)", EXTRA, 2, "max"),
     Row("false_alerts", "False alerts", EXTRA),
     Row("false_alerts_per_aircraft_hour", "False alerts per aircraft-hour", EXTRA, 2),
     Row("min_distance_to_spoofer_m", "Min distance to spoofer (m)", EXTRA, 1),
     Row("gcs_update_p99_ms", "GCS update p99 (ms)", EXTRA, 2),
     Row("planner_decision_p99_ms", "Planner decision p99 (ms)", EXTRA, 2),
+    *(
+        Row(f"paper_{key}", label, PAPER_DEFINITIONS, digits, published_key=published)
+        for key, label, digits, published in (
+            ("nmac_benign_benign", "Benign-benign NMACs", 3, "nmac_benign_benign"),
+            ("nmac_benign_spoofer", "Benign-spoofer NMACs", 3, "nmac_benign_spoofer"),
+            ("unsafe_violations", "Unsafe violations", 3, "unsafe_violations"),
+            ("containment_rate", "Containment rate", 3, "containment_rate"),
+            ("rmse_m", "RMSE of the region centre (m)", 1, "rmse_m"),
+            ("mae_m", "MAE of the region centre (m)", 1, "mae_m"),
+            (
+                "mean_ellipsoid_radius_m",
+                "Time-mean largest semi-axis (m)",
+                1,
+                "max_ellipsoid_radius_m",
+            ),
+        )
+    ),
 )
 
 
@@ -229,10 +264,14 @@ class Stat:
     std: float  # sample std (ddof 1); NaN for one run
 
 
-def stat(values: Sequence[float]) -> Stat | None:
+def stat(values: Sequence[float], summary: Summary = "mean") -> Stat | None:
+    """The runs' values summarised: mean and sample std, or an order statistic (std NaN)."""
     if not values:
         return None
     array = np.asarray(values, dtype=np.float64)
+    if summary != "mean":
+        quantile = {"median": 0.5, "p90": 0.9, "max": 1.0}[summary]
+        return Stat(int(array.size), float(np.quantile(array, quantile)), math.nan)
     std = float(array.std(ddof=1)) if array.size > 1 else math.nan
     return Stat(int(array.size), float(array.mean()), std)
 
@@ -272,8 +311,10 @@ class Cell:
         return None if var <= 0.0 else (self.ours.mean - self.published.mean) / math.sqrt(var)
 
 
-def _published(key: str, planner: str, density: int) -> Stat | None:
-    value = PUBLISHED.get((key, planner), {}).get(density)
+def _published(row: Row, planner: str, density: int) -> Stat | None:
+    if row.summary != "mean":
+        return None
+    value = PUBLISHED.get((row.published_key or row.key, planner), {}).get(density)
     return None if value is None else Stat(PUBLISHED_RUNS, value[0], value[1])
 
 
@@ -291,8 +332,9 @@ def summarise(sweeps: Sequence[SweepResults]) -> list[Cell]:
     for row, planner, variant, density in itertools.product(ROWS, planners, variants, densities):
         group = groups.get((variant, planner, density), [])
         values = [v for r in group if (v := metric_value(r.metrics, row.key)) is not None]
-        published = _published(row.key, planner, density)
-        cells.append(Cell(row, planner, density, variant, len(group), stat(values), published))
+        published = _published(row, planner, density)
+        ours = stat(values, row.summary)
+        cells.append(Cell(row, planner, density, variant, len(group), ours, published))
     return cells
 
 
