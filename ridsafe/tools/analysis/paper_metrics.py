@@ -27,6 +27,10 @@ that a paper-mode run can be set against the published table like for like:
   largest semi-axis ``sqrt(chi2 lambda_max(P))`` of the spoofer's region at each tick, **0 at
   ticks without one** (before the alert), averaged over *all* ticks of the run. Ours
   (``max_ellipsoid_radius_m``) is the maximum over the run.
+- ``paper_mean_horizontal_radius_m`` (not in the paper; a diagnostic of the one above): the
+  same time mean of the largest semi-axis of the region's horizontal extent, ``sqrt(chi2
+  lambda_max(P_xy))`` with ``P_xy`` the east-north block. The two differ when the vertical axis
+  is the region's longest (docs/paper_mode.md, "Radius").
 """
 
 from __future__ import annotations
@@ -57,6 +61,7 @@ PAPER_METRIC_KEYS: tuple[str, ...] = (
     "paper_rmse_m",
     "paper_mae_m",
     "paper_mean_ellipsoid_radius_m",
+    "paper_mean_horizontal_radius_m",
 )
 
 
@@ -131,11 +136,15 @@ def _spoofer_region_stats(
     group = run.regions.select(run.regions.uas_id == run.spoofer_serial)
     k = _region_index(group, ticks)
     has = k >= 0
-    radius = np.zeros(ticks.size)
+    radius, horizontal = np.zeros(ticks.size), np.zeros(ticks.size)
     if has.any():
-        largest = np.clip(np.linalg.eigvalsh(group.cov_enu_m2[k[has]])[:, -1], 0.0, None)
+        cov = group.cov_enu_m2[k[has]]
+        largest = np.clip(np.linalg.eigvalsh(cov)[:, -1], 0.0, None)
+        largest_xy = np.clip(np.linalg.eigvalsh(cov[:, :2, :2])[:, -1], 0.0, None)
         radius[has] = np.sqrt(group.chi2[k[has]] * largest)
+        horizontal[has] = np.sqrt(group.chi2[k[has]] * largest_xy)
     out["paper_mean_ellipsoid_radius_m"] = float(radius.mean())
+    out["paper_mean_horizontal_radius_m"] = float(horizontal.mean())
     if p_spoofer is None or not has.any():
         return out
     kk = k[has]

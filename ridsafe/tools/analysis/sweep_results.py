@@ -114,7 +114,7 @@ ROWS: tuple[Row, ...] = (
     Row("planner_decision_p99_ms", "Planner decision p99 (ms)", EXTRA, 2),
     *(
         Row(f"paper_{key}", label, PAPER_DEFINITIONS, digits, published_key=published)
-        for key, label, digits, published in (
+        for key, label, digits, published in (  # published: the row of Table 2 compared
             ("nmac_benign_benign", "Benign-benign NMACs", 3, "nmac_benign_benign"),
             ("nmac_benign_spoofer", "Benign-spoofer NMACs", 3, "nmac_benign_spoofer"),
             ("unsafe_violations", "Unsafe violations", 3, "unsafe_violations"),

@@ -44,6 +44,7 @@ _DISPLAY: dict[str, tuple[str, str, str]] = {
     "paper_rmse_m": ("paper: region-centre RMSE", "m", ".1f"),
     "paper_mae_m": ("paper: region-centre MAE", "m", ".1f"),
     "paper_mean_ellipsoid_radius_m": ("paper: mean ellipsoid radius", "m", ".1f"),
+    "paper_mean_horizontal_radius_m": ("paper: ... its horizontal", "m", ".1f"),
 }
 
 

@@ -50,6 +50,23 @@ def test_mean_radius_counts_zero_before_the_first_region(tmp_path: Path) -> None
     assert m["paper_containment_rate"] == 1.0
 
 
+def test_horizontal_radius_leaves_the_vertical_axis_out(tmp_path: Path) -> None:
+    # std 10 m north, 20 m up, from 30 s of 60 s: the largest axis is vertical, the largest
+    # horizontal one 10 m std, each over 121 of the 240 ticks.
+    cov = np.diag([25.0, 100.0, 400.0])
+    times = np.round(np.arange(30.0, 60.0 + 1e-9, 0.25), 10)
+    spec = RunSpec(
+        benign=[still((1000.0, 0.0, 60.0))],
+        spoofer=still(SPOOFER_AT),
+        extra=[alert(30.0), *(region(float(t), SPOOFER_AT, cov) for t in times)],
+    )
+    m = metrics_of(tmp_path, spec)
+    assert m["paper_mean_ellipsoid_radius_m"] == pytest.approx(math.sqrt(CHI2_95 * 400) * 121 / 240)
+    assert m["paper_mean_horizontal_radius_m"] == pytest.approx(
+        math.sqrt(CHI2_95 * 100) * 121 / 240
+    )
+
+
 def test_rmse_is_of_the_region_centre_not_the_track(tmp_path: Path) -> None:
     spec = RunSpec(
         benign=[still((1000.0, 0.0, 60.0))],
