@@ -114,7 +114,8 @@ ROWS: tuple[Row, ...] = (
     Row("planner_decision_p99_ms", "Planner decision p99 (ms)", EXTRA, 2),
     *(
         Row(f"paper_{key}", label, PAPER_DEFINITIONS, digits, published_key=published)
-        for key, label, digits, published in (  # published: the row of Table 2 compared
+        # published: the row of Table 2 it is compared with (None: none)
+        for key, label, digits, published in (
             ("nmac_benign_benign", "Benign-benign NMACs", 3, "nmac_benign_benign"),
             ("nmac_benign_spoofer", "Benign-spoofer NMACs", 3, "nmac_benign_spoofer"),
             ("unsafe_violations", "Unsafe violations", 3, "unsafe_violations"),
@@ -126,6 +127,12 @@ ROWS: tuple[Row, ...] = (
                 "Time-mean largest semi-axis (m)",
                 1,
                 "max_ellipsoid_radius_m",
+            ),
+            (
+                "mean_horizontal_radius_m",
+                "... of the horizontal extent (m; not in the paper)",
+                1,
+                None,
             ),
         )
     ),
