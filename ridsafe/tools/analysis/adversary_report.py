@@ -12,12 +12,9 @@ no false alert; ghost cells deliver at least ``1 - MAX_GHOST_DELIVERY_LOSS`` of 
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
-import numpy as np
-
-from ridsafe.tools.analysis.sweep_results import RunRecord, SweepResults
+from ridsafe.tools.analysis.sweep_results import RunRecord, SweepResults, mean_metric
 
 __all__ = ["AXIS", "adversary_section"]
 
@@ -37,15 +34,9 @@ def _cell(record: RunRecord) -> str | None:
     return None
 
 
-def _mean(records: Sequence[RunRecord], key: str) -> float | None:
-    values = [r.metrics.get(key) for r in records]
-    known = [float(v) for v in values if isinstance(v, int | float) and math.isfinite(v)]
-    return float(np.mean(known)) if known else None
-
-
 def _containment(records: Sequence[RunRecord]) -> float | None:
-    worst = _mean(records, "containment_rate_min")
-    return worst if worst is not None else _mean(records, "containment_rate")
+    worst = mean_metric(records, "containment_rate_min")
+    return worst if worst is not None else mean_metric(records, "containment_rate")
 
 
 def _fmt(value: float | None, digits: int = 2) -> str:
@@ -72,7 +63,10 @@ def _verdict(
     aware: Sequence[RunRecord], trust: Sequence[RunRecord], ghost_ratio: float | None
 ) -> str:
     misses = []
-    nmac, trust_nmac = _mean(aware, "nmac_benign_spoofer"), _mean(trust, "nmac_benign_spoofer")
+    nmac, trust_nmac = (
+        mean_metric(aware, "nmac_benign_spoofer"),
+        mean_metric(trust, "nmac_benign_spoofer"),
+    )
     if nmac is not None and nmac > MAX_AWARE_NMAC:
         misses.append(f"NMAC {nmac:.2f} > {MAX_AWARE_NMAC}")
     floor_met = trust_nmac is not None and trust_nmac >= TRUST_NMAC_FLOOR
@@ -81,7 +75,7 @@ def _verdict(
     containment = _containment(aware)
     if containment is not None and containment < MIN_CONTAINMENT:
         misses.append(f"containment {containment:.2f} < {MIN_CONTAINMENT}")
-    false_alerts = _mean(aware, "false_alerts")
+    false_alerts = mean_metric(aware, "false_alerts")
     if false_alerts:
         misses.append(f"false alerts {false_alerts:.2f}/run")
     if ghost_ratio is not None and ghost_ratio < 1.0 - MAX_GHOST_DELIVERY_LOSS:
@@ -121,15 +115,15 @@ def adversary_section(sweeps: Sequence[SweepResults]) -> list[str]:
                 f"`{name}`",
                 str(density),
                 f"{len(aware)}/{len(trust)}",
-                _fmt(_mean(aware, "nmac_benign_spoofer")),
-                _fmt(_mean(trust, "nmac_benign_spoofer")),
+                _fmt(mean_metric(aware, "nmac_benign_spoofer")),
+                _fmt(mean_metric(trust, "nmac_benign_spoofer")),
                 _fmt(_containment(aware)),
-                _fmt(_mean(aware, "false_alerts")),
-                _fmt(_mean(aware, "goal_reached_fraction")),
-                _fmt(_mean(trust, "goal_reached_fraction")),
+                _fmt(mean_metric(aware, "false_alerts")),
+                _fmt(mean_metric(aware, "goal_reached_fraction")),
+                _fmt(mean_metric(trust, "goal_reached_fraction")),
                 _fmt(ratio_aware, 3),
                 _fmt(ratio_trust, 3),
-                _fmt(_mean(aware, "spoofers_alerted_before_harm")),
+                _fmt(mean_metric(aware, "spoofers_alerted_before_harm")),
                 _verdict(aware, trust, ratio_aware if is_ghost else None),
             ]
             lines.append("| " + " | ".join(row) + " |")

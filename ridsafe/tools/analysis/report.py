@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ridsafe.tools.analysis.adversary_report import adversary_section
+from ridsafe.tools.analysis.channel_report import channel_section
 from ridsafe.tools.analysis.detector_roc import DetectorRoc, detector_rocs, roc_rows
 from ridsafe.tools.analysis.published import PUBLISHED_RUNS
 from ridsafe.tools.analysis.sweep_results import (
@@ -148,6 +149,7 @@ def render_markdown(
         if rows:
             lines += ["", f"## {section}", "", *_table(header, rows)]
     lines += adversary_section(sweeps)  # issue 16's attack cells, if the sweep has them
+    lines += channel_section(sweeps)  # issue 15's channel settings, if a sweep is one
     rows = [
         row for label, variant_rocs in (rocs or {}).items() for row in roc_rows(label, variant_rocs)
     ]

@@ -55,6 +55,7 @@ __all__ = [
     "Summary",
     "SweepResults",
     "load_sweep",
+    "mean_metric",
     "metric_value",
     "planner_order",
     "stat",
@@ -177,6 +178,7 @@ class SweepResults:
     problems: tuple[tuple[str, str, str], ...]  # (run dir, status, last line of the reason)
     stale: int  # results of another config, skipped
     from_logs: int  # runs whose metrics were computed from run.mcap now
+    calibrating: bool = False  # its config's GCS calibrates the channel (pipeline.calibration)
 
     @property
     def flights_s(self) -> tuple[float, ...]:
@@ -228,6 +230,7 @@ def load_sweep(path: Path, recompute: bool = False, label: str | None = None) ->
         tuple(problems),
         stale,
         from_logs,
+        base.pipeline.calibration.enabled,
     )
 
 
@@ -281,6 +284,13 @@ def stat(values: Sequence[float], summary: Summary = "mean") -> Stat | None:
         return Stat(int(array.size), float(np.quantile(array, quantile)), math.nan)
     std = float(array.std(ddof=1)) if array.size > 1 else math.nan
     return Stat(int(array.size), float(array.mean()), std)
+
+
+def mean_metric(records: Sequence[RunRecord], key: str) -> float | None:
+    """The mean of ``key`` over the records that have a finite value of it; None if none."""
+    values = [r.metrics.get(key) for r in records]
+    known = [float(v) for v in values if isinstance(v, int | float) and math.isfinite(v)]
+    return float(np.mean(known)) if known else None
 
 
 def metric_value(metrics: Metrics, key: str) -> float | None:
