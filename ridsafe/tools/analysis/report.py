@@ -3,8 +3,9 @@
 Input: one or more sweep folders (``ridsafe sweep``), e.g. our defaults and paper mode, read by
 ``analysis.sweep_results`` (which results count, and how a cell is computed). Outputs:
 ``report.md`` (tables in the paper's layout: metrics x densities, planners in blocks; ``(n=k)``
-marks cells where fewer runs than completed have the metric; the detectors' ROC AUC and
-operating point per sweep variant, ``analysis.detector_roc``), ``report.csv`` (one row per
+marks cells where fewer runs than completed have the metric; with the plots, the detectors'
+ROC AUC and operating point per sweep variant, ``analysis.detector_roc``, read from every
+run's log), ``report.csv`` (one row per
 cell; ``summary``: mean, median, p90 or max over the runs), and the plots of
 :mod:`ridsafe.tools.analysis.plots`.
 """
@@ -256,13 +257,14 @@ def write_report(
         raise ReportError(f"no completed runs in {', '.join(map(str, sweep_dirs))}")
     out.mkdir(parents=True, exist_ok=True)
     cells = summarise(sweeps)
-    rocs = {
-        label: detector_rocs(r.run_dir / LOG_FILE for r in sweep.records if r.params == params)
-        for sweep in sweeps
-        for params, label in sweep.variants()
-    }
+    rocs: dict[str, list[DetectorRoc]] = {}
     plot_paths: list[Path] = []
-    if with_plots:
+    if with_plots:  # the ROC reads every run's log: with the plots, not from the cache alone
+        rocs = {
+            label: detector_rocs(r.run_dir / LOG_FILE for r in sweep.records if r.params == params)
+            for sweep in sweeps
+            for params, label in sweep.variants()
+        }
         from ridsafe.tools.analysis.plots import report_plots  # noqa: PLC0415 (matplotlib only here)
 
         plot_paths = report_plots(sweeps, cells, out, fig3_density, rocs)

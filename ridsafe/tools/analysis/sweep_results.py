@@ -115,7 +115,7 @@ ROWS: tuple[Row, ...] = (
     Row("planner_decision_p99_ms", "Planner decision p99 (ms)", EXTRA, 2),
     *(
         Row(f"paper_{key}", label, PAPER_DEFINITIONS, digits, published_key=published)
-        # published: the row of Table 2 it is compared with (None: none)
+        # published: the row of Table 2 it is compared with (the horizontal extent has none)
         for key, label, digits, published in (
             ("nmac_benign_benign", "Benign-benign NMACs", 3, "nmac_benign_benign"),
             ("nmac_benign_spoofer", "Benign-spoofer NMACs", 3, "nmac_benign_spoofer"),

@@ -33,7 +33,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument(
         "--recompute", action="store_true", help="compute every run's metrics from its log"
     )
-    parser.add_argument("--no-plots", action="store_true", help="tables only")
+    parser.add_argument(
+        "--no-plots",
+        action="store_true",
+        help="tables only, from the cached metrics (no log read for plots or the detectors' ROC)",
+    )
     parser.add_argument(
         "--fig3-density", type=int, default=16, help="aircraft of the Fig. 3 runs (default 16)"
     )
