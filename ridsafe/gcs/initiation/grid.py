@@ -145,9 +145,13 @@ def _outside_neighbourhood(index: int, shape: tuple[int, int]) -> NDArray[np.boo
 
 def _moments(
     cells: _Cells, c_min: float, blur: FloatArray, k: int, s2: float, alt: float
-) -> GridSeed:
+) -> GridSeed | None:
+    """The basin's mass and moments; None when its mass underflows to 0 (a mode so much
+    worse than the best that no cell of it carries weight, e.g. at a small noise std)."""
     w = np.exp(-0.5 * (cells.cost - c_min)) * cells.side**2
     total = float(w.sum())
+    if not total > 0.0:
+        return None
     wn = w / total
     mean = wn @ cells.xy
     d = cells.xy - mean
@@ -238,7 +242,8 @@ def grid_posterior(
         mine &= _outside_neighbourhood(i, shape)
         parts.append((_basin(coarse[a], mine, fine), altitudes_m[a]))
     c_min = min(float(p.cost.min()) for p, _ in parts)
-    seeds = [_moments(cells, c_min, blur, z.shape[0], s2, alt) for cells, alt in parts]
+    moments = (_moments(cells, c_min, blur, z.shape[0], s2, alt) for cells, alt in parts)
+    seeds = [seed for seed in moments if seed is not None]  # the best mode's mass is > 0
     total = sum(s.weight for s in seeds)
     return [replace(s, weight=s.weight / total) for s in seeds]
 

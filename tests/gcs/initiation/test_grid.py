@@ -3,6 +3,8 @@ wide when the receivers are clustered, and its windows skip what was tried."""
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -40,3 +42,20 @@ def test_init_windows_span_and_skip_what_was_tried() -> None:
     windows = init_windows(claims, 4)
     assert [len(w) for w in windows] == [1, 2, 3, 3, 3]
     assert [w[-1].t_s for w in init_windows(claims, 4, after_s=2.5)] == [3.0, 4.0]
+
+
+def test_a_small_noise_std_drops_the_modes_whose_mass_underflows() -> None:
+    # At 0.05 dB every mode but the best is thousands of cost units worse: their weight
+    # underflows to 0, and a 0-weight mode with NaN moments made the spread NaN, which let
+    # any window pass the tight-posterior check.
+    rng = np.random.default_rng(0)
+    rx = np.column_stack((rng.uniform(-500, 500, (12, 2)), rng.uniform(30, 100, 12)))
+    p = np.array([120.0, -200.0, 60.0])
+    claims = [_claim(t, p, rx, rng, 0.05) for t in (0.0, 1.0, 2.0, 3.0, 4.0)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no 0 / 0 on the way
+        seeds = grid_posterior(claims, (20.0, 60.0, 100.0), 0.05)
+    assert all(s.weight > 0 and np.isfinite(s.cov_xy_m2).all() for s in seeds)
+    assert sum(s.weight for s in seeds) == pytest.approx(1.0)
+    assert np.linalg.norm(max(seeds, key=lambda s: s.weight).p_xy_m - p[:2]) < 20.0
+    assert np.isfinite(spread_m(seeds)) and spread_m(seeds) < 20.0
