@@ -66,7 +66,7 @@ def _verdict(aware: Sequence[RunRecord], trust: Sequence[RunRecord], density: in
     containment = mean_metric(aware, "containment_rate")
     floor = _for_density(MIN_CONTAINMENT, density)
     if containment is not None and containment < floor:
-        misses.append(f"containment {floor - containment:.2f} short of {floor}")
+        misses.append(f"containment {floor - containment:.3f} short of {floor}")
     rmse = mean_metric(aware, "rmse_m")
     ceiling = _for_density(MAX_RMSE_M, density)
     if rmse is not None and rmse > ceiling:
@@ -87,7 +87,7 @@ def _verdict(aware: Sequence[RunRecord], trust: Sequence[RunRecord], density: in
         misses.append(f"NMAC {nmac:.2f} > {NMAC_RATIO} x trust-RID {trust_nmac:.2f}")
     goal = mean_metric(aware, "goal_reached_fraction")
     if goal is not None and goal < MIN_GOAL:
-        misses.append(f"goal {MIN_GOAL - goal:.2f} short of {MIN_GOAL}")
+        misses.append(f"goal {MIN_GOAL - goal:.3f} short of {MIN_GOAL}")
     return "meets" if not misses else "misses: " + "; ".join(misses)
 
 

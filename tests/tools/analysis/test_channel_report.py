@@ -73,7 +73,7 @@ def test_each_setting_meets_or_says_by_how_much_it_misses() -> None:
     assert "(1 none)" in sixteen and "1 run(s) never alerted" in sixteen
     assert "false alerts 0.25/run" in sixteen  # 1 in 4 runs
     # containment (0.87 x 3 + 0.95) / 4 = 0.89, 0.01 short; RMSE (50 x 3 + 20) / 4 = 42.5
-    assert "containment 0.01 short of 0.9" in sixteen and "RMSE 2 m over 40" in sixteen
+    assert "containment 0.010 short of 0.9" in sixteen and "RMSE 2 m over 40" in sixteen
 
 
 def test_nmacs_against_the_bar_and_trust_rid() -> None:
