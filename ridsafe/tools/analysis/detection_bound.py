@@ -36,7 +36,7 @@ from scipy.special import ndtri
 
 from ridsafe.common import topics
 from ridsafe.tools.analysis.run_arrays import DETECTION_RECEIVERS
-from ridsafe.tools.runlog.reader import read_records
+from ridsafe.tools.runlog.reader import LogReadError, read_records
 
 __all__ = ["SeparationCurve", "detection_bound_s", "required_lambda", "separation_curve"]
 
@@ -136,7 +136,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--detection", type=float, default=0.5)
     args = parser.parse_args(argv)
     needed = required_lambda(args.false_alarm, args.detection)
-    curves = [separation_curve(log) for log in args.logs]
+    try:
+        curves = [separation_curve(log) for log in args.logs]
+    except (ValueError, KeyError, OSError, LogReadError) as exc:
+        print(f"detection_bound: {exc}", file=sys.stderr)
+        return 2
     print(
         f"oracle detection delay after {DETECTION_RECEIVERS} aircraft heard the spoofer, "
         f"false alarm {args.false_alarm:g}, detection {args.detection:g} (lambda {needed:.1f}), "

@@ -63,3 +63,14 @@ def test_the_command_prints_every_channel(
     printed = capsys.readouterr().out
     assert "exponent 2, sigma 1 dB:" in printed and "exponent 2, sigma 6 dB:" in printed
     assert "1 runs" in printed and "sigma 6 dB: never / never / never" in printed
+
+
+def test_a_log_without_a_constant_offset_spoofer_is_a_clear_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    log = tmp_path / "no_spoofer.mcap"
+    with McapRecorder(log) as recorder:
+        recorder.log(topics.RUN_META, 0.0, {"aircraft": []})
+    assert main([str(log)]) == 2
+    assert "no spoofer with a constant offset" in capsys.readouterr().err
+    assert main([str(tmp_path / "missing.mcap")]) == 2
