@@ -14,7 +14,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from ridsafe.tools.analysis.sweep_results import RunRecord, SweepResults, mean_metric
+from ridsafe.tools.analysis.sweep_results import (
+    RunRecord,
+    SweepResults,
+    format_number,
+    mean_metric,
+)
 
 __all__ = ["AXIS", "adversary_section"]
 
@@ -37,10 +42,6 @@ def _cell(record: RunRecord) -> str | None:
 def _containment(records: Sequence[RunRecord]) -> float | None:
     worst = mean_metric(records, "containment_rate_min")
     return worst if worst is not None else mean_metric(records, "containment_rate")
-
-
-def _fmt(value: float | None, digits: int = 2) -> str:
-    return "n/a" if value is None else f"{value:.{digits}f}"
 
 
 def _deliveries(records: Sequence[RunRecord]) -> dict[int, float]:
@@ -115,15 +116,15 @@ def adversary_section(sweeps: Sequence[SweepResults]) -> list[str]:
                 f"`{name}`",
                 str(density),
                 f"{len(aware)}/{len(trust)}",
-                _fmt(mean_metric(aware, "nmac_benign_spoofer")),
-                _fmt(mean_metric(trust, "nmac_benign_spoofer")),
-                _fmt(_containment(aware)),
-                _fmt(mean_metric(aware, "false_alerts")),
-                _fmt(mean_metric(aware, "goal_reached_fraction")),
-                _fmt(mean_metric(trust, "goal_reached_fraction")),
-                _fmt(ratio_aware, 3),
-                _fmt(ratio_trust, 3),
-                _fmt(mean_metric(aware, "spoofers_alerted_before_harm")),
+                format_number(mean_metric(aware, "nmac_benign_spoofer")),
+                format_number(mean_metric(trust, "nmac_benign_spoofer")),
+                format_number(_containment(aware)),
+                format_number(mean_metric(aware, "false_alerts")),
+                format_number(mean_metric(aware, "goal_reached_fraction")),
+                format_number(mean_metric(trust, "goal_reached_fraction")),
+                format_number(ratio_aware, 3),
+                format_number(ratio_trust, 3),
+                format_number(mean_metric(aware, "spoofers_alerted_before_harm")),
                 _verdict(aware, trust, ratio_aware if is_ghost else None),
             ]
             lines.append("| " + " | ".join(row) + " |")

@@ -21,7 +21,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ridsafe.tools.analysis.sweep_results import RunRecord, SweepResults, mean_metric
+from ridsafe.tools.analysis.sweep_results import (
+    RunRecord,
+    SweepResults,
+    format_number,
+    mean_metric,
+)
 
 __all__ = ["channel_section", "is_channel_sweep"]
 
@@ -45,10 +50,6 @@ def is_channel_sweep(sweep: SweepResults) -> bool:
 def _for_density(bar: dict[int, float], density: int) -> float:
     keys = [k for k in sorted(bar) if k <= density]
     return bar[keys[-1] if keys else min(bar)]
-
-
-def _fmt(value: float | None, digits: int = 2) -> str:
-    return "n/a" if value is None else f"{value:.{digits}f}"
 
 
 def _delays(records: Sequence[RunRecord]) -> tuple[list[float], int]:
@@ -102,13 +103,13 @@ def _row(label: str, density: int, aware: list[RunRecord], trust: list[RunRecord
         label,
         str(density),
         f"{len(aware)}/{len(trust)}",
-        _fmt(mean_metric(aware, "containment_rate"), 3),
-        _fmt(mean_metric(aware, "rmse_m"), 1),
+        format_number(mean_metric(aware, "containment_rate"), 3),
+        format_number(mean_metric(aware, "rmse_m"), 1),
         delay,
-        _fmt(mean_metric(aware, "false_alerts")),
-        _fmt(mean_metric(aware, "nmac_benign_spoofer")),
-        _fmt(mean_metric(trust, "nmac_benign_spoofer")),
-        _fmt(mean_metric(aware, "goal_reached_fraction"), 3),
+        format_number(mean_metric(aware, "false_alerts")),
+        format_number(mean_metric(aware, "nmac_benign_spoofer")),
+        format_number(mean_metric(trust, "nmac_benign_spoofer")),
+        format_number(mean_metric(aware, "goal_reached_fraction"), 3),
         _verdict(aware, trust, density),
     ]
 

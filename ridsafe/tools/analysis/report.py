@@ -31,6 +31,7 @@ from ridsafe.tools.analysis.sweep_results import (
     Row,
     Stat,
     SweepResults,
+    format_number,
     load_sweep,
     summarise,
 )
@@ -43,14 +44,12 @@ __all__ = ["CSV_HEADER", "ReportFiles", "render_markdown", "write_csv", "write_r
 # Markdown and CSV
 
 
-def _fmt(value: float | None, digits: int) -> str:
-    return "n/a" if value is None or not math.isfinite(value) else f"{value:.{digits}f}"
-
-
 def _fmt_stat(s: Stat | None, digits: int, runs: int) -> str:
     if s is None:
         return "n/a"
-    text = _fmt(s.mean, digits) + ("" if math.isnan(s.std) else f" ± {_fmt(s.std, digits)}")
+    text = format_number(s.mean, digits) + (
+        "" if math.isnan(s.std) else f" ± {format_number(s.std, digits)}"
+    )
     return text + (f" (n={s.n})" if s.n != runs else "")
 
 

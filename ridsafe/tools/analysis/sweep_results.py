@@ -54,6 +54,7 @@ __all__ = [
     "Stat",
     "Summary",
     "SweepResults",
+    "format_number",
     "load_sweep",
     "mean_metric",
     "metric_value",
@@ -284,6 +285,11 @@ def stat(values: Sequence[float], summary: Summary = "mean") -> Stat | None:
         return Stat(int(array.size), float(np.quantile(array, quantile)), math.nan)
     std = float(array.std(ddof=1)) if array.size > 1 else math.nan
     return Stat(int(array.size), float(array.mean()), std)
+
+
+def format_number(value: float | None, digits: int = 2) -> str:
+    """A report cell: the value to ``digits`` decimals, "n/a" when missing or not finite."""
+    return "n/a" if value is None or not math.isfinite(value) else f"{value:.{digits}f}"
 
 
 def mean_metric(records: Sequence[RunRecord], key: str) -> float | None:
