@@ -286,6 +286,11 @@ class RssiFilterConfig:
     #: Split a hypothesis before an update whose curvature over it exceeds this (dB).
     split_nonlinearity_db: float = 0.5
     max_hypotheses: int = 6
+    #: The ground's height in the GCS's ENU frame (m): a hypothesis that falls below it is
+    #: reflected to its mirror image above it (``localisation/gaussian_sum.py``). None (the
+    #: default): no ground. Set it where the frame's origin is on flat ground, as in the
+    #: scenario configs (depots and delivery sites at z = 0).
+    ground_z_enu_m: float | None = None
     #: Transmit power that changes every message (``localisation/power_jitter.py``): 'off'
     #: (the paper's assumption: one power per transmitter, a slow random walk) or 'adaptive'
     #: (the per-message variance estimated per track and added before each update, the track

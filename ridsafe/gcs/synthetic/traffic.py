@@ -11,9 +11,10 @@ path-loss model the sim radio uses (``ridsafe.common.pathloss.received_power_dbm
 Benign aircraft either fly between random waypoints at 30-100 m and up to 8 m/s
 (``start="airborne"``), or start on the ground at the default scenario's three depots, climb
 to a cruise height and fly to a delivery site (``start="depots"``, like the lockstep runs).
-A transmission closes at the first GCS cycle at least ``close_lag_s`` after it (the GCS
-shell's grouping window is 0.3 s). Optional imperfections: reported receiver positions with
-noise, claimed altitudes truncated to the F3411 0.5 m step.
+``parked_receivers_enu_m`` adds aircraft standing still at those points (on the ground, waiting
+to take off), after the benign ones. A transmission closes at the first GCS cycle at least
+``close_lag_s`` after it (the GCS shell's grouping window is 0.3 s). Optional imperfections:
+reported receiver positions with noise, claimed altitudes truncated to the F3411 0.5 m step.
 
 ``evaluate.run_pipeline`` drives an ``EstimationPipeline`` over the traffic and measures it.
 Used by the GCS tests and by ``bench/bench_gcs.py``; the draws come from one generator per
@@ -69,6 +70,8 @@ class Scene:
     close_lag_s: float = 0.3
     #: Every aircraft broadcasts at the same phase (worst case for a GCS cycle's load).
     aligned_phases: bool = False
+    #: Aircraft that stand still at these points (e.g. parked on a pad), after the others.
+    parked_receivers_enu_m: tuple[tuple[float, float, float], ...] = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -145,8 +148,11 @@ def make_traffic(scene: Scene, spoofer_path: Path | None = None) -> Traffic:
     path_rng, radio_rng = rng.spawn(2)
     make = _waypoint_path if scene.start == "airborne" else _depot_path
     paths = [make(path_rng, scene) for _ in range(scene.n_receivers)]
-    ids = [benign_id(i) for i in range(scene.n_receivers)]
-    powers = [scene.tx_power_dbm] * scene.n_receivers
+    end_s = scene.duration_s + 2.0
+    for point in scene.parked_receivers_enu_m:
+        paths.append(Path(np.array([0.0, end_s]), np.array([point, point], dtype=np.float64)))
+    ids = [benign_id(i) for i in range(len(paths))]
+    powers = [scene.tx_power_dbm] * len(paths)
     if scene.with_spoofer:
         line = _spoofer_path(path_rng, scene)
         paths.append(line if spoofer_path is None else spoofer_path)
