@@ -18,7 +18,7 @@ do, not what the configuration made of it.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ridsafe.common import topics
+from ridsafe.tools.analysis.run_arrays import benign_serials
 from ridsafe.tools.runlog.reader import read_records
 
 __all__ = ["DetectorRoc", "ScoreSamples", "detector_rocs", "roc_rows", "run_scores"]
@@ -49,20 +50,13 @@ class ScoreSamples:
         self.benign_flagged += other.benign_flagged
 
 
-def _benign_serials(meta: Mapping[str, object]) -> set[str]:
-    aircraft = meta.get("aircraft")
-    if not isinstance(aircraft, list):
-        return set()
-    return {str(a["serial"]) for a in aircraft if isinstance(a, Mapping) and "serial" in a}
-
-
 def run_scores(log: Path) -> dict[str, ScoreSamples]:
     """Detector name -> its statistics in one run log (non-finite statistics left out)."""
     benign: set[str] = set()
     records: list[tuple[str, str, float, bool]] = []  # (detector, uas_id, statistic, decision)
     for topic, _t_s, record in read_records(log, topics=(topics.RUN_META, topics.DETECTOR_STATS)):
         if topic == topics.RUN_META:
-            benign |= _benign_serials(record)
+            benign |= set(benign_serials(record))
             continue
         statistic = record.get("statistic")
         if isinstance(statistic, int | float) and math.isfinite(statistic):

@@ -56,7 +56,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -65,7 +65,7 @@ from ridsafe.common.ellipsoid import mahalanobis2
 from ridsafe.tools.analysis.adversary_metrics import adversary_metrics
 from ridsafe.tools.analysis.encounters import airborne, count_entry_events, pair_entry_events
 from ridsafe.tools.analysis.paper_metrics import PAPER_METRIC_KEYS, paper_metrics
-from ridsafe.tools.analysis.run_arrays import Regions, RunLog, Truth, load_run
+from ridsafe.tools.analysis.run_arrays import Regions, RunLog, Truth, benign_serials, load_run
 
 __all__ = [
     "DEFAULT_MIN_HEIGHT_M",
@@ -161,16 +161,6 @@ def false_alerts_per_aircraft_hour(run: RunLog) -> float | None:
     return false_alerts(run) / hours if hours > 0.0 else None
 
 
-def _benign_serials(run: RunLog) -> dict[str, int]:
-    """Serial -> sysid of the benign aircraft of ``/run/meta``."""
-    aircraft = run.meta.get("aircraft") or []
-    return {
-        str(a["serial"]): int(a["sysid"])
-        for a in aircraft
-        if isinstance(a, Mapping) and "serial" in a and "sysid" in a
-    }
-
-
 def _nmac(run: RunLog, min_height_m: float) -> tuple[int | None, int | None]:
     truth = run.truth
     benign = _columns(truth, run.benign_sysids)
@@ -189,7 +179,7 @@ def _unsafe_violations(run: RunLog, min_height_m: float) -> int | None:
     regions = run.regions
     if regions.t_s.size == 0:
         return None
-    serials = _benign_serials(run)
+    serials = benign_serials(run.meta)
     total = 0
     for uas_id in np.unique(regions.uas_id):
         own = serials.get(str(uas_id))

@@ -33,6 +33,7 @@ __all__ = [
     "Regions",
     "RunLog",
     "Truth",
+    "benign_serials",
     "heard_by_s",
     "load_run",
 ]
@@ -211,6 +212,18 @@ def load_run(path: str | os.PathLike[str]) -> RunLog:
         spoofer_heard_s=None if spoofer_sysid is None else heard_by_s(path, spoofer_sysid),
         autopilot_failsafes=len(by_topic[topics.SIM_EVENTS]),
     )
+
+
+def benign_serials(meta: Mapping[str, Any]) -> dict[str, int]:
+    """Serial -> sysid of the benign aircraft of a ``/run/meta`` record."""
+    aircraft = meta.get("aircraft")
+    if not isinstance(aircraft, list):
+        return {}
+    return {
+        str(a["serial"]): int(a["sysid"])
+        for a in aircraft
+        if isinstance(a, Mapping) and "serial" in a and "sysid" in a
+    }
 
 
 def heard_by_s(
