@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import re
 
-from tests.tools.run.test_live import ROOT
+from tests.tools.run.live_runs import ROOT
 
 NAMED_TEST = re.compile(r"`(tests/[\w/]+\.py)::(test_\w+)`")
 

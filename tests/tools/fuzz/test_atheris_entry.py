@@ -12,7 +12,7 @@ import pytest
 from ridsafe.tools.fuzz.atheris_entry import one_input
 from ridsafe.tools.fuzz.harness import CORES, warm_up
 from ridsafe.tools.run.scenario import load_scenario_file
-from tests.tools.run.test_live import ROOT
+from tests.tools.run.live_runs import ROOT
 
 
 @pytest.mark.parametrize("core", CORES)

@@ -15,10 +15,9 @@ import pytest
 from ridsafe.common import topics
 from ridsafe.tools.run import live
 from ridsafe.tools.runlog.reader import read_records
-from tests.signals import keyboard_interrupt_on_sigint
+from tests.tools.run.live_runs import start_live_run
 from tests.tools.run.output_watch import OutputWatch, wait_for_text
 
-ROOT = Path(__file__).resolve().parents[3]
 PORTS = [
     "--set", "sim.ports.companion_base=35760",
     "--set", "sim.ports.gcs_out_base=34550",
@@ -27,15 +26,7 @@ PORTS = [
 
 
 def _run(out: Path, *extra: str) -> subprocess.Popen[str]:
-    argv = [sys.executable, "-m", "ridsafe.tools.cli", "run", "--mode", "live", "--out", str(out)]
-    with keyboard_interrupt_on_sigint():  # Ctrl-C reaches the run however pytest was started
-        return subprocess.Popen(
-            [*argv, "--planner", "straight-line", *PORTS, *extra],
-            cwd=ROOT,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
-            text=True,
-        )
+    return start_live_run(out, *PORTS, *extra)
 
 
 @pytest.mark.udp

@@ -31,7 +31,6 @@ import re
 import selectors
 import socket
 import subprocess
-import sys
 import threading
 import time
 from collections import deque
@@ -48,7 +47,7 @@ from ridsafe.tools.fuzz.harness import warm_up
 from ridsafe.tools.fuzz.mutate import Mutator
 from ridsafe.tools.run.scenario import load_scenario_file
 from ridsafe.tools.runlog.reader import read_records
-from tests.tools.run.test_live import ROOT
+from tests.tools.run.live_runs import start_live_run
 
 COMPANION_BASE, GCS_OUT_BASE, GCS_PORT = 36760, 36550, 36450  # apart from test_live's
 RELAY_PORT = 36460  # where the sprayed run's companions send to the GCS
@@ -73,7 +72,6 @@ DROPS = {  # the counters of what an app dropped or refused (links, shell, runne
 
 
 def _run(out: Path, port_offset: int = 0, relay: bool = False) -> subprocess.Popen[str]:
-    argv = [sys.executable, "-m", "ridsafe.tools.cli", "run", "--mode", "live", "--out", str(out)]
     ports = [
         "--set", f"sim.ports.companion_base={COMPANION_BASE + port_offset}",
         "--set", f"sim.ports.gcs_out_base={GCS_OUT_BASE + port_offset}",
@@ -82,13 +80,7 @@ def _run(out: Path, port_offset: int = 0, relay: bool = False) -> subprocess.Pop
     if relay:
         ports += ["--set", f"run.gcs_connect=udpout:127.0.0.1:{RELAY_PORT}"]
     flags = ["--seed", str(SEED), "--speed", str(SPEED), "--duration", str(DURATION_S)]
-    return subprocess.Popen(
-        [*argv, "--planner", "straight-line", *flags, *ports],
-        cwd=ROOT,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
+    return start_live_run(out, *flags, *ports)
 
 
 STARTED = {"sim.log": "t=", "gcs.log": "running at", "companions-1-4.log": "companion 4:"}
