@@ -14,9 +14,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from ridsafe.common.ellipsoid import mahalanobis2
 from ridsafe.gcs.localisation.gaussian_sum import mirror_above_ground
-from ridsafe.gcs.pipeline_api import CycleOutput
 from ridsafe.gcs.pipeline_config import ForcedAlertConfig, PipelineConfig
 from ridsafe.gcs.synthetic.evaluate import run_pipeline
 from ridsafe.gcs.synthetic.traffic import SPOOFER_ID, Path, Scene, make_traffic
@@ -75,20 +73,9 @@ def _containment(seed: int, parked: int, ground_z_enu_m: float | None) -> float:
     )
     pads = tuple((435.0 + 8.0 * k, -380.0 - 6.0 * k, 0.0) for k in range(parked))
     scene = Scene(seed=seed, n_receivers=14, duration_s=DURATION_S, parked_receivers_enu_m=pads)
-    path = _hover_path()
-    traffic = make_traffic(scene, path)
-    inside: list[bool] = []
-
-    def score(now: float, out: CycleOutput) -> None:
-        truth = path.at(now)[0]
-        for region in out.regions:
-            if region.uas_id == SPOOFER_ID and now >= SCORED_FROM_S:
-                m2 = float(mahalanobis2(truth - region.center_enu_m, region.cov_enu_m2))
-                inside.append(m2 <= region.chi2_threshold)
-
-    run_pipeline(traffic, cfg, on_cycle=score)
-    assert len(inside) > 0.9 * (DURATION_S - SCORED_FROM_S) / 0.25
-    return float(np.mean(inside))
+    metrics = run_pipeline(make_traffic(scene, _hover_path()), cfg, scored_from_s=SCORED_FROM_S)
+    assert len(metrics.containment) > 0.9 * (DURATION_S - SCORED_FROM_S) / 0.25
+    return metrics.containment_rate
 
 
 @pytest.mark.slow

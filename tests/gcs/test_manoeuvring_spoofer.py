@@ -17,8 +17,6 @@ import dataclasses
 import numpy as np
 import pytest
 
-from ridsafe.common.ellipsoid import mahalanobis2
-from ridsafe.gcs.pipeline_api import CycleOutput
 from ridsafe.gcs.pipeline_config import ForcedAlertConfig, PipelineConfig
 from ridsafe.gcs.synthetic.evaluate import run_pipeline
 from ridsafe.gcs.synthetic.traffic import (
@@ -49,18 +47,9 @@ def _adversaries_pipeline() -> PipelineConfig:
 
 
 def _containment(traffic: Traffic, cfg: PipelineConfig) -> float:
-    inside: list[bool] = []
-
-    def score(now: float, out: CycleOutput) -> None:
-        truth = traffic.spoofer_path.at(now)[0]
-        for region in out.regions:
-            if region.uas_id == SPOOFER_ID and now >= SCORED_FROM_S:
-                m2 = float(mahalanobis2(truth - region.center_enu_m, region.cov_enu_m2))
-                inside.append(m2 <= region.chi2_threshold)
-
-    run_pipeline(traffic, cfg, on_cycle=score)
-    assert len(inside) > 0.9 * (DURATION_S - SCORED_FROM_S) / 0.25
-    return float(np.mean(inside))
+    metrics = run_pipeline(traffic, cfg, scored_from_s=SCORED_FROM_S)
+    assert len(metrics.containment) > 0.9 * (DURATION_S - SCORED_FROM_S) / 0.25
+    return metrics.containment_rate
 
 
 @pytest.mark.slow

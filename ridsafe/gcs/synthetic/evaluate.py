@@ -63,8 +63,10 @@ def run_pipeline(
     config: PipelineConfig,
     keep_results: bool = False,
     on_cycle: Callable[[float, CycleOutput], None] | None = None,
+    scored_from_s: float = -math.inf,
 ) -> RunMetrics:
-    """Drive a fresh pipeline over ``traffic`` cycle by cycle and measure it."""
+    """Drive a fresh pipeline over ``traffic`` cycle by cycle and measure it (the spoofer's
+    regions from ``scored_from_s`` on: containment, NEES, errors)."""
     pipeline = EstimationPipeline(config)
     metrics = RunMetrics()
     n_cycles = round(traffic.scene.duration_s / CYCLE_S)
@@ -80,13 +82,20 @@ def run_pipeline(
                 metrics.first_heard_by_4_s = claim.t_s
         out = pipeline.step(now, claims)
         metrics.compute_s.append(pipeline.compute_s[-1])
-        _score(traffic, now, out, metrics, keep_results)
+        _score(traffic, now, out, metrics, keep_results, scored_from_s)
         if on_cycle is not None:
             on_cycle(now, out)
     return metrics
 
 
-def _score(traffic: Traffic, now: float, out: CycleOutput, metrics: RunMetrics, keep: bool) -> None:
+def _score(
+    traffic: Traffic,
+    now: float,
+    out: CycleOutput,
+    metrics: RunMetrics,
+    keep: bool,
+    scored_from_s: float,
+) -> None:
     for change in out.alert_changes:
         if change.state is not AlertState.RAISED:
             continue
@@ -102,6 +111,8 @@ def _score(traffic: Traffic, now: float, out: CycleOutput, metrics: RunMetrics, 
             continue
         if math.isnan(metrics.first_region_s):
             metrics.first_region_s = now
+        if now < scored_from_s:
+            continue
         d = truth - region.center_enu_m
         m2 = float(mahalanobis2(d, region.cov_enu_m2))
         metrics.containment.append(m2 <= region.chi2_threshold)
