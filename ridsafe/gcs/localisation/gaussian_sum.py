@@ -209,11 +209,11 @@ class GaussianSumLocaliser:
         self.weights = w / w.sum()
         self._prune()
         fused = imm.merge(self.state, self.model)
-        ground_z_enu_m = f.ground_z_enu_m
-        if ground_z_enu_m is not None and np.any(fused.x[:, _Z] < ground_z_enu_m):
-            below = fused.x[:, _Z] < ground_z_enu_m
-            self.state = mirror_above_ground(self.state, below, ground_z_enu_m)
-            fused = imm.merge(self.state, self.model)
+        if f.ground_z_enu_m is not None:
+            below = fused.x[:, _Z] < f.ground_z_enu_m
+            if np.any(below):
+                self.state = mirror_above_ground(self.state, below, f.ground_z_enu_m)
+                fused = imm.merge(self.state, self.model)
         fused = self._merge_close(fused)
         self._respawn(fused)
         return True
