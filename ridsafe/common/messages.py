@@ -200,6 +200,7 @@ class RegionFlags(enum.IntFlag):
     NONE = 0
     DELETED = 1
     COASTING = 2
+    ON_GROUND = 4
 
 
 _SAFETY_ARMED = int(MavModeFlag.SAFETY_ARMED)

@@ -11,7 +11,9 @@ the planner's. So the mission holds them while a hazard covers the pad (``pad_cl
 
       |c_h(t + tau) - pad_h| - sqrt(chi2 lambda_max(P_h)) < pad_clearance_m,  tau in [0, T]
 
-  (``c_h``, ``P_h``: the horizontal part of the region's centre and covariance);
+  (``c_h``, ``P_h``: the horizontal part of the region's centre and covariance); a region
+  around a radio on the ground (``Region.on_ground``, a ghost's) only where its footprint
+  covers the pad (clearance 0): it is no aircraft that the climb or the landing could meet;
 - another *airborne* aircraft, as its Remote ID claims it (flagged claims only for a planner
   that trusts them), within ``pad_clearance_m`` horizontally of the pad and below
   ``ceiling_m`` (take-off: climbing through it; landing: lower than the aircraft itself, so
@@ -69,7 +71,8 @@ def pad_blocker(
     pad."""
     for region in regions:
         live = region.valid_until_s >= t_s
-        if live and _region_near(region, pad_ned_m, t_s, clearance_m, lookahead_s):
+        clear_m = 0.0 if region.on_ground else clearance_m
+        if live and _region_near(region, pad_ned_m, t_s, clear_m, lookahead_s):
             return f"region {region.uas_id}"
     for neighbour in neighbours:
         p = neighbour.p_ned_m

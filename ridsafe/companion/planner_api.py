@@ -45,6 +45,9 @@ class Region:
     v_ned_m_s: Vec3  # estimated velocity of the spoofer (to project the region)
     t_s: float  # time of the estimate
     valid_until_s: float
+    #: A radio standing on the ground (the GCS's ``RegionFlags.ON_GROUND``): no hazard in
+    #: flight, it holds only the take-offs and landings it covers (``pad_clearance``).
+    on_ground: bool = False
 
 
 @dataclass(frozen=True, slots=True)

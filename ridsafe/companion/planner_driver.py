@@ -130,9 +130,13 @@ class PlannerDriver:
             v_ned_m_s=lpn.v_ned_m_s,
             goal_ned_m=goal,
             neighbours=claims,
-            regions=regions.regions(sim_now, to_local)
-            + held_regions(
-                regions.expired_last, sim_now, self._hold_s, self._growth_m2_s, to_local
+            regions=tuple(
+                r
+                for r in regions.regions(sim_now, to_local)
+                + held_regions(
+                    regions.expired_last, sim_now, self._hold_s, self._growth_m2_s, to_local
+                )
+                if not r.on_ground  # a radio on the ground: only the pad rule minds it
             ),
         )
         start = time.perf_counter()

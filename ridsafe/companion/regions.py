@@ -138,4 +138,5 @@ def _to_region(msg: m.UnsafeRegionMsg, to_local: ToLocal) -> Region:
         v_ned_m_s=msg.v_ned_m_s,
         t_s=msg.t_s,
         valid_until_s=msg.valid_until_s,
+        on_ground=bool(msg.flags & RegionFlags.ON_GROUND),
     )

@@ -46,6 +46,7 @@ def inflated(msg: m.UnsafeRegionMsg, now_s: float, growth_m2_s: float, to_local:
         v_ned_m_s=msg.v_ned_m_s,
         t_s=now_s,
         valid_until_s=now_s,
+        on_ground=bool(msg.flags & m.RegionFlags.ON_GROUND),
     )
 
 

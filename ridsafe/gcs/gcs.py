@@ -438,6 +438,8 @@ class Gcs:
                 self._warn.warn(now_s, "region", message)
                 continue
             flags = m.RegionFlags.COASTING if region.track_id in coasting else m.RegionFlags.NONE
+            if region.on_ground:
+                flags |= m.RegionFlags.ON_GROUND
             msg = region_message(
                 self.origin, region, now_s, self.config.region_validity_s, int(flags)
             )

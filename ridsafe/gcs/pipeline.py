@@ -29,7 +29,9 @@ since the last cycle, and answers what it decided. Each cycle:
    ``tracks.coast_max_radius_m`` > 0 it coasts on, its prediction's covariance growing, until
    its region is wider than that;
 5. every live track is predicted to ``now_s`` -> ``TrackEstimate`` and ``UnsafeRegion`` (as
-   ``region/publishing.py`` publishes it: the estimate itself unless configured).
+   ``region/publishing.py`` publishes it: the estimate itself unless configured); with
+   ``ghosts.enabled`` a track that stands still while its claim flies is a radio on the
+   ground, its region flat on it (``region/ground.py``).
 
 The compute time of each cycle is logged (DEBUG) and kept in ``compute_s``. The matrices are
 tiny: run the GCS with ``OPENBLAS_NUM_THREADS=1`` (set before numpy is imported); BLAS worker
@@ -56,13 +58,15 @@ from ridsafe.gcs.pipeline_api import (
     CycleOutput,
     DetectorResult,
     ObservedClaim,
+    TrackEstimate,
     UnsafeRegion,
     readonly,
 )
 from ridsafe.gcs.pipeline_config import PipelineConfig, TrackConfig
 from ridsafe.gcs.pipeline_kernels import all_finite
+from ridsafe.gcs.region.ground import GroundWatch, flat_on_ground
 from ridsafe.gcs.region.publishing import RegionPublisher
-from ridsafe.gcs.region.unsafe_region import make_region
+from ridsafe.gcs.region.unsafe_region import chi2_threshold, make_region
 from ridsafe.gcs.tracks import Track, finite, initiate
 
 logger = logging.getLogger(__name__)
@@ -177,6 +181,10 @@ class EstimationPipeline:
         self._next_track_id = 1
         self._forced_done = False
         self._publisher = RegionPublisher(self.config.region.publish)
+        ghosts, ground_z_m = self.config.ghosts, self.config.rssi_filter.ground_z_enu_m
+        self._ground = (
+            GroundWatch(ghosts, ground_z_m) if ghosts.enabled and ground_z_m is not None else None
+        )
         self._waiting: list[tuple[float, ObservedClaim]] = []  # (arrived s, claim)
         self.compute_s: deque[float] = deque(maxlen=COMPUTE_HISTORY)
 
@@ -344,6 +352,8 @@ class EstimationPipeline:
             if self._tracks.pop(uas_id, None) is not None:
                 deleted.append(uas_id)
                 self._publisher.forget(uas_id)
+                if self._ground is not None:
+                    self._ground.forget(uas_id)
                 logger.info("track on %s deleted after %.1f s of silence", uas_id, timeout)
         for uas_id, heard in list(self._heard.items()):
             if now_s - heard.last_heard_s > FORGET_AFTER_S and uas_id not in self._alerts:
@@ -382,9 +392,23 @@ class EstimationPipeline:
                 continue
             estimates.append(est)
             center, cov = self._publisher.publish(est.uas_id, est.p_enu_m, est.cov_enu_m2)
+            velocity, on_ground, ground = est.v_enu_m_s, False, self._ground
+            if ground is not None and self._on_ground(ground, now_s, est):
+                on_ground, velocity = True, np.zeros(3)
+                center, cov = flat_on_ground(
+                    center, cov, ground.ground_z_enu_m, self.config.ghosts.max_height_m,
+                    chi2_threshold(self.config.region.alpha),
+                )  # fmt: skip
             regions.append(
                 make_region(
-                    est.uas_id, est.track_id, now_s, center, cov, est.v_enu_m_s, self.config.region
+                    est.uas_id,
+                    est.track_id,
+                    now_s,
+                    center,
+                    cov,
+                    velocity,
+                    self.config.region,
+                    on_ground,
                 )
             )
         return CycleOutput(
@@ -394,6 +418,14 @@ class EstimationPipeline:
             regions=tuple(regions),
             deleted_tracks=tuple(deleted),
         )
+
+    def _on_ground(self, ground: GroundWatch, now_s: float, est: TrackEstimate) -> bool:
+        """Is the track's transmitter a radio on the ground (``region/ground.py``)?"""
+        heard = self._heard.get(est.uas_id)
+        if heard is None or not heard.recent:
+            return False
+        claim = heard.recent[-1].claimed_p_enu_m
+        return ground.update(est.uas_id, now_s, est.p_enu_m, est.cov_enu_m2, claim)
 
     # --- introspection --------------------------------------------------------------------
 

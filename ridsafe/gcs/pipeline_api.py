@@ -116,6 +116,8 @@ class UnsafeRegion:
     valid_until_s: float
     semi_axes_m: FloatArray  # (3,)
     axes_enu: FloatArray  # (3, 3)
+    #: A radio standing on the ground (``region/ground.py``): the region is flat on it.
+    on_ground: bool = False
 
 
 @dataclass(frozen=True)

@@ -48,6 +48,7 @@ __all__ = [
     "AuthorsImmConfig",
     "DetectionConfig",
     "ForcedAlertConfig",
+    "GroundTransmitterConfig",
     "ImmConfig",
     "MultilaterationConfig",
     "PipelineConfig",
@@ -445,6 +446,41 @@ class RegionConfig:
 
 
 @dataclass(frozen=True)
+class GroundTransmitterConfig:
+    """Ghosts (``region/ground.py``): an alerted transmitter whose track stands still while its
+    claim flies is taken for a radio on the ground, and its region is published flat on the
+    ground (from ``rssi_filter.ground_z_enu_m`` up to ``max_height_m``), flagged ON_GROUND.
+
+    Still: over the last ``window_s`` the track's horizontal estimates all lie within
+    ``still_radius_m`` of their mean (``keep_radius_m`` once recognised), while its claimed
+    position moved at least ``min_claim_travel_m``; and low: the ground layer within
+    ``height_sigmas`` standard deviations of its estimated height. Off by default (every
+    region as estimated); it needs the ground (``rssi_filter.ground_z_enu_m``)."""
+
+    enabled: bool = False
+    window_s: float = 15.0
+    still_radius_m: float = 20.0
+    keep_radius_m: float = 30.0
+    min_claim_travel_m: float = 45.0
+    #: The published region spans the ground to this height (m): a radio held, on a roof
+    #: or on a mast.
+    max_height_m: float = 10.0
+    #: Only while that layer lies within this many standard deviations of the estimate's
+    #: height (a transmitter known to be high is not on the ground).
+    height_sigmas: float = 2.0
+
+    def __post_init__(self) -> None:
+        names = ("window_s", "still_radius_m", "min_claim_travel_m", "max_height_m")
+        for name in (*names, "height_sigmas"):
+            check_positive(name, getattr(self, name))
+        if not self.keep_radius_m >= self.still_radius_m:
+            raise FieldValueError(
+                "keep_radius_m",
+                f"expected >= still_radius_m ({self.still_radius_m}), got {self.keep_radius_m}",
+            )
+
+
+@dataclass(frozen=True)
 class ForcedAlertConfig:
     """The paper's experiments force the alert for the spoofer's serial at 5 s."""
 
@@ -481,6 +517,8 @@ class PipelineConfig:
     tracks: TrackConfig = field(default_factory=TrackConfig)
     region: RegionConfig = field(default_factory=RegionConfig)
     forced_alert: ForcedAlertConfig = field(default_factory=ForcedAlertConfig)
+    #: Ghosts: a still transmitter whose claim flies, published on the ground.
+    ghosts: GroundTransmitterConfig = field(default_factory=GroundTransmitterConfig)
     #: Channel calibration on the cooperative aircraft (``calibration/``); off: the
     #: channel is ``rssi_sigma_db`` and free space, as configured.
     calibration: CalibrationConfig = field(default_factory=CalibrationConfig)
@@ -513,3 +551,7 @@ class PipelineConfig:
                 "max_claims_per_cycle", f"expected >= 0, got {self.max_claims_per_cycle}"
             )
         check_positive("max_claim_wait_s", self.max_claim_wait_s)
+        if self.ghosts.enabled and self.rssi_filter.ground_z_enu_m is None:
+            raise FieldValueError(
+                "ghosts.enabled", "a transmitter on the ground needs rssi_filter.ground_z_enu_m"
+            )

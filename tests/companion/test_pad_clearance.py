@@ -46,6 +46,15 @@ def test_a_region_coming_at_the_pad_blocks_it_before_it_arrives() -> None:
     assert _blocker(regions=(leaving,)) is None
 
 
+def test_a_radio_on_the_ground_blocks_only_the_pad_its_footprint_covers() -> None:
+    """A ghost's region (``on_ground``): no clearance, it is no aircraft the climb could meet."""
+    beside = replace(_region((40.0, 0.0, -5.0)), on_ground=True)  # 40 - 20 < 30, but > 0
+    over = replace(_region((15.0, 0.0, -5.0)), on_ground=True)  # 15 - 20 < 0: covers the pad
+    assert _blocker(regions=(beside,)) is None
+    assert _blocker(regions=(replace(beside, on_ground=False),)) == "region SPOOF"
+    assert _blocker(regions=(over,)) == "region SPOOF"
+
+
 def test_an_expired_region_blocks_nothing() -> None:
     assert _blocker(regions=(replace(_region(PAD), valid_until_s=5.0),)) is None
 

@@ -15,7 +15,11 @@ import numpy as np
 import pytest
 
 from ridsafe.gcs.localisation.gaussian_sum import mirror_above_ground
-from ridsafe.gcs.pipeline_config import ForcedAlertConfig, PipelineConfig
+from ridsafe.gcs.pipeline_config import (
+    ForcedAlertConfig,
+    GroundTransmitterConfig,
+    PipelineConfig,
+)
 from ridsafe.gcs.synthetic.evaluate import run_pipeline
 from ridsafe.gcs.synthetic.traffic import SPOOFER_ID, Path, Scene, make_traffic
 from ridsafe.gcs.tracking.imm import Gaussian, ImmState
@@ -69,6 +73,7 @@ def _containment(seed: int, parked: int, ground_z_enu_m: float | None) -> float:
     cfg: PipelineConfig = dataclasses.replace(
         pipeline,
         rssi_filter=dataclasses.replace(pipeline.rssi_filter, ground_z_enu_m=ground_z_enu_m),
+        ghosts=GroundTransmitterConfig(),  # needs the ground; its claim hovers: no ghost anyway
         forced_alert=ForcedAlertConfig(enabled=True, uas_id=SPOOFER_ID, time_s=2.0),
     )
     pads = tuple((435.0 + 8.0 * k, -380.0 - 6.0 * k, 0.0) for k in range(parked))

@@ -393,8 +393,10 @@ RIDSAFE_REGION_FLAGS_DELETED = 1
 enums["RIDSAFE_REGION_FLAGS"][1] = EnumEntry("RIDSAFE_REGION_FLAGS_DELETED", """The track behind this region was deleted; forget the region.""")
 RIDSAFE_REGION_FLAGS_COASTING = 2
 enums["RIDSAFE_REGION_FLAGS"][2] = EnumEntry("RIDSAFE_REGION_FLAGS_COASTING", """No fresh fix: the region is a prediction only.""")
-RIDSAFE_REGION_FLAGS_ENUM_END = 3
-enums["RIDSAFE_REGION_FLAGS"][3] = EnumEntry("RIDSAFE_REGION_FLAGS_ENUM_END", """""")
+RIDSAFE_REGION_FLAGS_ON_GROUND = 4
+enums["RIDSAFE_REGION_FLAGS"][4] = EnumEntry("RIDSAFE_REGION_FLAGS_ON_GROUND", """The transmitter stands on the ground while its Remote ID claims to fly (a ghost): the region lies flat on the ground and holds only take-offs and landings it covers.""")
+RIDSAFE_REGION_FLAGS_ENUM_END = 5
+enums["RIDSAFE_REGION_FLAGS"][5] = EnumEntry("RIDSAFE_REGION_FLAGS_ENUM_END", """""")
 
 # RIDSAFE_RID_TRANSPORT
 enums["RIDSAFE_RID_TRANSPORT"] = Enum()

@@ -96,6 +96,7 @@ def make_region(
     cov_enu_m2: FloatArray,
     v_enu_m_s: FloatArray,
     cfg: RegionConfig,
+    on_ground: bool = False,
 ) -> UnsafeRegion:
     """The region of an estimate at ``t_s``, valid for ``cfg.validity_s``."""
     cov, lam, V = _positive_definite_eigh(cov_enu_m2)
@@ -113,4 +114,5 @@ def make_region(
         valid_until_s=t_s + cfg.validity_s,
         semi_axes_m=readonly(semi),
         axes_enu=readonly(axes),
+        on_ground=on_ground,
     )

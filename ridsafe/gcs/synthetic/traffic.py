@@ -132,17 +132,22 @@ class Traffic:
     paths: tuple[Path, ...]  # benign 0..n-1, then the spoofer
     ids: tuple[str, ...]
     cycles: dict[float, list[ObservedClaim]] = field(default_factory=dict)
+    #: Where the spoofer's broadcasts claim it is (None: its true position plus the offset).
+    claim_path: Path | None = None
 
     @property
     def spoofer_path(self) -> Path:
         return self.paths[-1]
 
 
-def make_traffic(scene: Scene, spoofer_path: Path | None = None) -> Traffic:
+def make_traffic(
+    scene: Scene, spoofer_path: Path | None = None, claim_path: Path | None = None
+) -> Traffic:
     """Every observed claim of the scene, grouped by the GCS cycle that delivers it.
 
     ``spoofer_path``: the spoofer flies it instead of its straight line (a manoeuvring
-    spoofer); the line is still drawn, so the benign traffic and every phase stay the same.
+    spoofer, or a ghost's radio standing still); the line is still drawn, so the benign
+    traffic and every phase stay the same. ``claim_path``: where its broadcasts claim it is.
     """
     rng = np.random.default_rng(scene.seed)
     path_rng, radio_rng = rng.spawn(2)
@@ -166,7 +171,7 @@ def make_traffic(scene: Scene, spoofer_path: Path | None = None) -> Traffic:
         for i, phase in enumerate(phases)
         for k in range(int(scene.duration_s - phase) + 1)
     )
-    traffic = Traffic(scene, tuple(paths), tuple(ids))
+    traffic = Traffic(scene, tuple(paths), tuple(ids), claim_path=claim_path)
     for t, sender in events:
         claim = _observed_claim(traffic, t, sender, powers[sender], radio_rng)
         if claim is None:
@@ -192,7 +197,10 @@ def _observed_claim(
         return None
     claimed = p[sender].copy()
     if scene.with_spoofer and sender == n - 1:
-        claimed += np.asarray(scene.spoofer_offset_enu_m)
+        if traffic.claim_path is None:
+            claimed += np.asarray(scene.spoofer_offset_enu_m)
+        else:
+            claimed = traffic.claim_path.at(t)[0]
     if scene.quantise_claimed_alt:
         claimed[2] = math.floor(claimed[2] / 0.5) * 0.5
     idx = np.flatnonzero(heard)

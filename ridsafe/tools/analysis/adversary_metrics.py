@@ -25,13 +25,23 @@ Whenever the run lists adversaries (also one spoofer; so a run with ghosts compa
 same seed without):
 ``benign_path_length_m`` (sum over benign aircraft of the 3D length flown, truth samples) and
 ``mean_arrival_time_s`` (over the aircraft that arrived). With ghosts: ``ghosts_alerted``
-(ghosts with a raised alert) and ``ghost_region_containment`` (fraction of the ghosts'
-regions that contain the ghost's real transmitter: the GCS knows where the radio is).
+(ghosts with a raised alert), ``ghost_region_containment`` (fraction of the ghosts'
+regions that contain the ghost's real transmitter: the GCS knows where the radio is),
+``ghost_on_ground_fraction`` (fraction of their regions the GCS sent flagged ON_GROUND, a
+radio on the ground: ``gcs/region/ground.py``) and ``ghost_on_ground_from_s`` (mean over the
+ghosts so flagged of the first such region's time).
+
+Pad holds (``/companion/events`` ``pad_blocked`` / ``pad_clear``, ``companion/pad_clearance.py``):
+``pad_hold_s_ghosts``, ``pad_hold_s_other_regions``, ``pad_hold_s_aircraft``: aircraft-seconds
+of take-off or landing held by a ghost's region, any other region, another aircraft (a hold
+still on at the end counts to the end); ``aircraft_held_by_ghosts``: how many aircraft a
+ghost's region ever held.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -39,6 +49,7 @@ from numpy.typing import NDArray
 
 from ridsafe.common import topics
 from ridsafe.common.ellipsoid import mahalanobis2
+from ridsafe.common.messages import RegionFlags
 from ridsafe.tools.analysis.encounters import airborne, pair_entry_events
 from ridsafe.tools.analysis.run_arrays import RunLog
 from ridsafe.tools.runlog.reader import read_records
@@ -46,7 +57,14 @@ from ridsafe.tools.runlog.reader import read_records
 FloatArray = NDArray[np.float64]
 Metrics = dict[str, float | int | None]
 
-__all__ = ["DEFAULT_D_SAFE_M", "adversaries_of", "adversary_metrics", "harm_lie_m", "per_adversary"]
+__all__ = [
+    "DEFAULT_D_SAFE_M",
+    "adversaries_of",
+    "adversary_metrics",
+    "harm_lie_m",
+    "pad_holds",
+    "per_adversary",
+]
 
 #: The trusting planner's separation from a claimed position when the run does not say (m).
 DEFAULT_D_SAFE_M = 100.0
@@ -161,7 +179,11 @@ def per_adversary(run: RunLog, min_height_m: float) -> list[dict[str, Any]]:
         elif column is not None:
             transmitter = np.asarray(adversary.get("transmitter_enu_m"), dtype=np.float64)
             row["region_containment"] = _containment(run, serial, column, -np.inf, transmitter)
-            row["region_count"] = int(np.count_nonzero(run.regions.uas_id == serial))
+            mine = run.regions.select(run.regions.uas_id == serial)
+            row["region_count"] = int(mine.t_s.size)
+            on_ground = (mine.flags & int(RegionFlags.ON_GROUND)) != 0
+            row["on_ground_fraction"] = float(np.mean(on_ground)) if mine.t_s.size else None
+            row["on_ground_from_s"] = float(mine.t_s[on_ground][0]) if on_ground.any() else None
         rows.append(row)
     return rows
 
@@ -225,4 +247,45 @@ def adversary_metrics(
     if ghost_rows:
         out["ghosts_alerted"] = sum(1 for r in ghost_rows if r["alert_time_s"] is not None)
         out["ghost_region_containment"] = _mean([r.get("region_containment") for r in ghost_rows])
+        out["ghost_on_ground_fraction"] = _mean([r.get("on_ground_fraction") for r in ghost_rows])
+        out["ghost_on_ground_from_s"] = _mean([r.get("on_ground_from_s") for r in ghost_rows])
+    if run.path.exists():
+        end_s = float(run.truth.t_s[-1]) if run.truth.t_s.size else 0.0
+        roles = {str(a["serial"]): str(a.get("role")) for a in listed}
+        out.update(pad_holds(run.path, end_s, roles))
     return out
+
+
+def pad_holds(path: Path, end_s: float, roles: Mapping[str, str]) -> Metrics:
+    """The pad-hold keys of the module docstring, from the companions' events in the log at
+    ``path`` (``roles``: adversary serial -> "spoofer" / "ghost"; holds still on end at
+    ``end_s``)."""
+    held: dict[str, float] = {"ghost": 0.0, "region": 0.0, "aircraft": 0.0}
+    by_ghost: set[int] = set()
+    since: dict[int, tuple[float, str]] = {}  # sysid -> (held from, by which kind)
+
+    def close(sysid: int, t_s: float) -> None:
+        start = since.pop(sysid, None)
+        if start is not None:
+            held[start[1]] += t_s - start[0]
+
+    for _topic, t_s, record in read_records(path, topics=(topics.COMPANION_EVENTS,)):
+        event, sysid = record.get("event"), int(record.get("sysid", 0))
+        if event not in ("pad_blocked", "pad_clear"):
+            continue
+        close(sysid, t_s)
+        if event == "pad_blocked":
+            what, _, who = str(record.get("detail", "")).rpartition(": ")[2].partition(" ")
+            kind = "aircraft" if what == "aircraft" else "region"
+            kind = "ghost" if kind == "region" and roles.get(who) == "ghost" else kind
+            since[sysid] = (t_s, kind)
+            if kind == "ghost":
+                by_ghost.add(sysid)
+    for sysid in list(since):
+        close(sysid, end_s)
+    return {
+        "pad_hold_s_ghosts": held["ghost"],
+        "pad_hold_s_other_regions": held["region"],
+        "pad_hold_s_aircraft": held["aircraft"],
+        "aircraft_held_by_ghosts": len(by_ghost),
+    }

@@ -128,6 +128,7 @@ def adversary_section(sweeps: Sequence[SweepResults]) -> list[str]:
                 _verdict(aware, trust, ratio_aware if is_ghost else None),
             ]
             lines.append("| " + " | ".join(row) + " |")
+    lines += _ghost_lines(records, cells)
     lines += [
         "",
         f"Bar (issue 16): aware NMACs <= {MAX_AWARE_NMAC}/run and <= {NMAC_RATIO} x trust-RID's "
@@ -138,3 +139,41 @@ def adversary_section(sweeps: Sequence[SweepResults]) -> list[str]:
         "as not caught). Containment: the worst spoofer's per run.",
     ]
     return lines
+
+
+def _ghost_lines(records: Sequence[RunRecord], cells: Sequence[str | None]) -> list[str]:
+    """What the ghosts' regions did, aware planner (it is the one that reads regions)."""
+    rows = []
+    for density in sorted({r.density for r in records}):
+        for name in cells:
+            aware = [
+                r
+                for r in records
+                if _cell(r) == name and r.density == density and r.planner == "aware"
+            ]
+            if not any(r.metrics.get("ghosts_alerted") is not None for r in aware):
+                continue
+            row = [
+                f"`{name}`",
+                str(density),
+                format_number(mean_metric(aware, "ghost_region_containment")),
+                format_number(mean_metric(aware, "ghost_on_ground_fraction")),
+                format_number(mean_metric(aware, "ghost_on_ground_from_s"), 1),
+                format_number(mean_metric(aware, "aircraft_held_by_ghosts")),
+                format_number(mean_metric(aware, "pad_hold_s_ghosts"), 1),
+            ]
+            rows.append("| " + " | ".join(row) + " |")
+    if not rows:
+        return []
+    return [
+        "",
+        "Ghosts, aware planner (means per run): how often the ghosts' regions contain their "
+        "radio and were sent flagged ON_GROUND (a radio on the ground, `gcs/region/ground.py`), "
+        "from when, and the take-offs and landings their regions held "
+        "(`companion/pad_clearance.py`).",
+        "",
+        "| Attack | Aircraft | ghost regions holding the radio | on the ground | first on the "
+        "ground (s) | aircraft held by a ghost | held by ghosts (aircraft-s) |",
+        "|" + "---|" * 7,
+        *rows,
+    ]

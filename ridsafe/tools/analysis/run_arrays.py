@@ -113,16 +113,17 @@ class Truth:
 @dataclass(frozen=True, eq=False)
 class Regions:
     """Unsafe-region records: ``t_s`` (R,), ``uas_id`` (R,), ``center_enu_m`` (R, 3),
-    ``cov_enu_m2`` (R, 3, 3), ``chi2`` (R,)."""
+    ``cov_enu_m2`` (R, 3, 3), ``chi2`` (R,), ``flags`` (R,) (``messages.RegionFlags``)."""
 
     t_s: FloatArray
     uas_id: NDArray[np.str_]
     center_enu_m: FloatArray
     cov_enu_m2: FloatArray
     chi2: FloatArray
+    flags: NDArray[np.int64]
 
     def __post_init__(self) -> None:
-        _freeze(self.t_s, self.uas_id, self.center_enu_m, self.cov_enu_m2, self.chi2)
+        _freeze(self.t_s, self.uas_id, self.center_enu_m, self.cov_enu_m2, self.chi2, self.flags)
 
     def select(self, which: NDArray[Any]) -> Regions:
         """The records picked by a boolean mask or an index array."""
@@ -132,6 +133,7 @@ class Regions:
             self.center_enu_m[which],
             self.cov_enu_m2[which],
             self.chi2[which],
+            self.flags[which],
         )
 
 
@@ -314,6 +316,7 @@ def _regions(rows: list[tuple[float, dict[str, Any]]]) -> Regions:
             len(rows), 3, 3
         ),
         chi2=np.array([r["chi2_threshold"] for _, r in rows], dtype=np.float64),
+        flags=np.array([int(r.get("flags", 0)) for _, r in rows], dtype=np.int64),
     )
 
 

@@ -14,12 +14,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from ridsafe.common import topics
 from ridsafe.common.config import load_config
-from ridsafe.tools.analysis.adversary_metrics import harm_lie_m, per_adversary
+from ridsafe.tools.analysis.adversary_metrics import harm_lie_m, pad_holds, per_adversary
 from ridsafe.tools.analysis.metrics import compute_metrics
 from ridsafe.tools.analysis.run_arrays import load_run
 from ridsafe.tools.run.lockstep import run_lockstep
 from ridsafe.tools.run.scenario import ScenarioFile
+from ridsafe.tools.runlog.writer import McapRecorder
 
 EXAMPLE = Path(__file__).parents[2] / "common" / "adversaries_example.yaml"
 
@@ -65,3 +67,30 @@ def test_the_drifting_spoofers_lie_is_measured_against_the_harm_distance(example
     assert offset["harm_time_s"] == pytest.approx(0.0, abs=0.11)
     if offset["alert_time_s"] is not None:
         assert offset["lie_at_alert_m"] == pytest.approx(70.71, abs=0.01)
+
+
+def test_pad_holds_are_summed_per_holder_from_the_companions_events(tmp_path: Path) -> None:
+    """Oracle: hand-summed intervals of a written log; a hold still on at the end counts to
+    the end, a hold that changes holder closes the first."""
+    events = [
+        (10.0, 1, "pad_blocked", "wait_departure: region RSAF800000777"),  # ghost 10-14
+        (14.0, 1, "pad_blocked", "wait_departure: region RSAF800000666"),  # spoofer 14-20
+        (20.0, 1, "pad_clear", "wait_departure: pad clear"),
+        (12.0, 2, "pad_blocked", "descend: aircraft RSAF800000003"),  # aircraft 12-15
+        (15.0, 2, "pad_clear", "descend: pad clear"),
+        (30.0, 3, "pad_blocked", "wait_departure: region RSAF800000778"),  # ghost 30-40 (end)
+        (31.0, 4, "autopilot_seen", "mode STABILIZE"),
+    ]
+    path = tmp_path / "run.mcap"
+    with McapRecorder(path) as recorder:
+        for t_s, sysid, event, detail in sorted(events):
+            recorder.log(
+                topics.COMPANION_EVENTS, t_s, {"sysid": sysid, "event": event, "detail": detail}
+            )
+    roles = {"RSAF800000666": "spoofer", "RSAF800000777": "ghost", "RSAF800000778": "ghost"}
+    assert pad_holds(path, 40.0, roles) == {
+        "pad_hold_s_ghosts": 14.0,
+        "pad_hold_s_other_regions": 6.0,
+        "pad_hold_s_aircraft": 3.0,
+        "aircraft_held_by_ghosts": 2,
+    }

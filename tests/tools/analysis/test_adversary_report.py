@@ -32,13 +32,19 @@ def test_each_cell_meets_or_says_by_how_much_it_misses() -> None:
         _record("orbit", "aware", 0, nmac_benign_spoofer=1, **{**ok, "containment_rate": 0.8}),
         _record("orbit", "trust-rid", 0, nmac_benign_spoofer=2, **ok),
         _record("two-ghosts", "aware", 0, nmac_benign_spoofer=0, ghosts_alerted=2,
+                ghost_on_ground_fraction=0.6, aircraft_held_by_ghosts=1, pad_hold_s_ghosts=12.0,
                 **{**ok, "goal_reached_fraction": 0.9}),
-        _record("two-ghosts", "aware", 1, nmac_benign_spoofer=0, ghosts_alerted=2, **ok),
+        _record("two-ghosts", "aware", 1, nmac_benign_spoofer=0, ghosts_alerted=2,
+                ghost_on_ground_fraction=0.8, aircraft_held_by_ghosts=0, pad_hold_s_ghosts=0.0,
+                **ok),
         _record("two-ghosts", "trust-rid", 0, nmac_benign_spoofer=0, ghosts_alerted=2,
                 **{**ok, "goal_reached_fraction": 0.5}),
     ]  # fmt: skip
     lines = adversary_section([_sweep(*records)])
-    rows = {line.split("|")[1].strip(): line for line in lines if line.startswith("| `")}
+    rows: dict[str, str] = {}
+    for line in lines:  # the first table's row of each cell (the ghost table comes after)
+        if line.startswith("| `"):
+            rows.setdefault(line.split("|")[1].strip(), line)
     assert rows["`line`"].endswith("| meets |")
     orbit = rows["`orbit`"]
     assert "NMAC 1.00 > 0.15" in orbit and "NMAC 1.00 > 0.2 x trust-RID 2.00" in orbit
@@ -46,6 +52,8 @@ def test_each_cell_meets_or_says_by_how_much_it_misses() -> None:
     ghosts = rows["`two-ghosts`"]
     assert "| 0.950 | 0.500 |" in ghosts  # (0.9 + 1.0) / 2 of line's; trust-RID 0.5 / 1.0
     assert "deliveries 5.0 % lost to ghosts" in ghosts
+    ghost_rows = [line for line in lines if line.startswith("| `two-ghosts`") and line != ghosts]
+    assert ghost_rows == ["| `two-ghosts` | 16 | n/a | 0.70 | n/a | 0.50 | 6.0 |"]
 
 
 def test_no_section_without_an_adversary_axis() -> None:
