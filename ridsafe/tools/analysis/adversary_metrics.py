@@ -19,7 +19,9 @@ trusting planner may come within ``d_safe_m - |lie|`` of it, an NMAC once that i
 NMAC radius: the lie can hurt once ``|lie| > harm_lie_m = d_safe_m - nmac_threshold_m`` (50 m).
 Per spoofer (truth channel: claimed vs true position): ``lie_at_alert_m``, ``harm_time_s`` (first
 time the lie exceeds ``harm_lie_m``; None: never) and ``alerted_before_harm``; the run's
-``spoofers_alerted_before_harm`` counts the spoofers whose lie never got there un-alerted.
+``spoofers_alerted_before_harm`` counts the spoofers whose lie never got there un-alerted;
+``spoofer_regions_on_ground`` counts the spoofers' regions the GCS sent flagged ON_GROUND
+(a spoofer taken for a radio on the ground: ``gcs/region/ground.py``).
 
 Whenever the run lists adversaries (also one spoofer; so a run with ghosts compares with the
 same seed without):
@@ -139,6 +141,12 @@ def _containment(
     return float(np.mean(m2[known] <= regions.chi2[known]))
 
 
+def _on_ground_count(run: RunLog, serial: str) -> int:
+    """How many of ``serial``'s regions the GCS sent flagged ON_GROUND."""
+    mine = (run.regions.uas_id == serial) & ((run.regions.flags & int(RegionFlags.ON_GROUND)) != 0)
+    return int(np.count_nonzero(mine))
+
+
 def _rmse(run: RunLog, serial: str, column: int, since_s: float) -> float | None:
     mask = (run.track_uas_id == serial) & (run.track_t_s >= since_s)
     if not mask.any():
@@ -174,6 +182,7 @@ def per_adversary(run: RunLog, min_height_m: float) -> list[dict[str, Any]]:
             since = alert if alert is not None else np.inf
             row["containment_rate"] = _containment(run, serial, column, since)
             row["rmse_m"] = _rmse(run, serial, column, since)
+            row["regions_on_ground"] = _on_ground_count(run, serial)
             if serial in lies:
                 row.update(_harm(*lies[serial], alert, limit_m))
         elif column is not None:
@@ -222,6 +231,9 @@ def adversary_metrics(
         1 for r in rows if r["role"] == "spoofer" and r.get("alerted_before_harm")
     )
     out["lie_at_alert_m"] = _mean([r.get("lie_at_alert_m") for r in rows if r["role"] == "spoofer"])
+    out["spoofer_regions_on_ground"] = sum(
+        int(r.get("regions_on_ground") or 0) for r in rows if r["role"] == "spoofer"
+    )
     if len(spoofers) <= 1 and not ghosts:
         return out
     spoofer_rows = [r for r in rows if r["role"] == "spoofer"]

@@ -39,6 +39,10 @@ def _cell(record: RunRecord) -> str | None:
     return None
 
 
+def _label(record: RunRecord) -> str:
+    return f"`{_cell(record)}` {record.density} {record.planner} seed {record.spec.seed}"
+
+
 def _containment(records: Sequence[RunRecord]) -> float | None:
     worst = mean_metric(records, "containment_rate_min")
     return worst if worst is not None else mean_metric(records, "containment_rate")
@@ -128,6 +132,16 @@ def adversary_section(sweeps: Sequence[SweepResults]) -> list[str]:
                 _verdict(aware, trust, ratio_aware if is_ghost else None),
             ]
             lines.append("| " + " | ".join(row) + " |")
+    on_ground = [r for r in records if (r.metrics.get("spoofer_regions_on_ground") or 0) > 0]
+    known = [r for r in records if r.metrics.get("spoofer_regions_on_ground") is not None]
+    if known:
+        lines += [
+            "",
+            f"Spoofers taken for a radio on the ground (their region sent flagged ON_GROUND): "
+            f"in {len(on_ground)} of {len(known)} runs"
+            + (": " + ", ".join(sorted({_label(r) for r in on_ground})) if on_ground else "")
+            + ".",
+        ]
     lines += _ghost_lines(records, cells)
     lines += [
         "",

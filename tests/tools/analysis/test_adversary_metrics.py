@@ -49,6 +49,8 @@ def test_every_adversary_has_a_row_and_the_totals_add_up(example_run: Path) -> N
     assert metrics["false_alerts"] == len(raised & benign)  # adversaries' alerts are not false
     assert metrics["spoofers_alerted"] == sum(r["alert_time_s"] is not None for r in rows[:4])
     assert metrics["ghosts_alerted"] == int(rows[4]["alert_time_s"] is not None)
+    on_ground = sum(r["regions_on_ground"] for r in rows[:4])
+    assert metrics["spoofer_regions_on_ground"] == on_ground == 0  # the example's GCS: no ghosts
     known = [r["containment_rate"] for r in rows[:4] if r["containment_rate"] is not None]
     if known:
         assert metrics["containment_rate"] == pytest.approx(float(np.mean(known)))

@@ -52,8 +52,19 @@ def test_each_cell_meets_or_says_by_how_much_it_misses() -> None:
     ghosts = rows["`two-ghosts`"]
     assert "| 0.950 | 0.500 |" in ghosts  # (0.9 + 1.0) / 2 of line's; trust-RID 0.5 / 1.0
     assert "deliveries 5.0 % lost to ghosts" in ghosts
+    assert "Spoofers taken for a radio on the ground" not in "".join(lines)  # no run says
     ghost_rows = [line for line in lines if line.startswith("| `two-ghosts`") and line != ghosts]
     assert ghost_rows == ["| `two-ghosts` | 16 | n/a | 0.70 | n/a | 0.50 | 6.0 |"]
+
+
+def test_a_spoofer_taken_for_a_radio_on_the_ground_is_named() -> None:
+    records = [
+        _record("orbit", "aware", 3, spoofer_regions_on_ground=12),
+        _record("orbit", "aware", 4, spoofer_regions_on_ground=0),
+        _record("line", "aware", 3, spoofer_regions_on_ground=0),
+    ]
+    text = "\n".join(adversary_section([_sweep(*records)]))
+    assert "(their region sent flagged ON_GROUND): in 1 of 3 runs: `orbit` 16 aware seed 3." in text
 
 
 def test_no_section_without_an_adversary_axis() -> None:
