@@ -155,18 +155,53 @@ def adversary_section(sweeps: Sequence[SweepResults]) -> list[str]:
     return lines
 
 
+def _paired(
+    cell: Sequence[RunRecord], control: Sequence[RunRecord], key: str
+) -> list[tuple[float, float]]:
+    """(cell's, control's) value of ``key`` on the seeds both have it for."""
+    mine = {r.spec.seed: r.metrics.get(key) for r in cell}
+    base = {r.spec.seed: r.metrics.get(key) for r in control}
+    return [
+        (float(a), float(b))
+        for seed in sorted(set(mine) & set(base))
+        if isinstance(a := mine[seed], int | float) and isinstance(b := base[seed], int | float)
+    ]
+
+
+def _extra_path(cell: Sequence[RunRecord], control: Sequence[RunRecord]) -> float | None:
+    """Benign path length flown with ghosts over that of the control, same seeds, minus 1."""
+    pairs = _paired(cell, control, "benign_path_length_m")
+    total = sum(b for _, b in pairs)
+    return None if not pairs or total <= 0.0 else sum(a for a, _ in pairs) / total - 1.0
+
+
+def _delay(cell: Sequence[RunRecord], control: Sequence[RunRecord]) -> float | None:
+    """Mean arrival time with ghosts minus the control's, same seeds (s)."""
+    pairs = _paired(cell, control, "mean_arrival_time_s")
+    return sum(a - b for a, b in pairs) / len(pairs) if pairs else None
+
+
+def _percent(value: float | None) -> str:
+    return "n/a" if value is None else f"{100.0 * value:+.1f} %"
+
+
 def _ghost_lines(records: Sequence[RunRecord], cells: Sequence[str | None]) -> list[str]:
-    """What the ghosts' regions did, aware planner (it is the one that reads regions)."""
+    """What the ghosts' regions did (aware planner: the one that reads regions) and what the
+    ghosts cost each planner against ``CONTROL`` on the same seeds."""
     rows = []
     for density in sorted({r.density for r in records}):
-        for name in cells:
-            aware = [
-                r
-                for r in records
-                if _cell(r) == name and r.density == density and r.planner == "aware"
+
+        def pick(planner: str, cell: str | None, n: int = density) -> list[RunRecord]:
+            return [
+                r for r in records if _cell(r) == cell and r.density == n and r.planner == planner
             ]
-            if not any(r.metrics.get("ghosts_alerted") is not None for r in aware):
+
+        for name in cells:
+            aware, trust = pick("aware", name), pick("trust-rid", name)
+            if not any(r.metrics.get("ghosts_alerted") is not None for r in aware + trust):
                 continue
+            line_aware, line_trust = pick("aware", CONTROL), pick("trust-rid", CONTROL)
+            delays = (_delay(aware, line_aware), _delay(trust, line_trust))
             row = [
                 f"`{name}`",
                 str(density),
@@ -175,19 +210,25 @@ def _ghost_lines(records: Sequence[RunRecord], cells: Sequence[str | None]) -> l
                 format_number(mean_metric(aware, "ghost_on_ground_from_s"), 1),
                 format_number(mean_metric(aware, "aircraft_held_by_ghosts")),
                 format_number(mean_metric(aware, "pad_hold_s_ghosts"), 1),
+                f"{_percent(_extra_path(aware, line_aware))} / "
+                f"{_percent(_extra_path(trust, line_trust))}",
+                " / ".join("n/a" if d is None else f"{d:+.1f}" for d in delays),
             ]
             rows.append("| " + " | ".join(row) + " |")
     if not rows:
         return []
     return [
         "",
-        "Ghosts, aware planner (means per run): how often the ghosts' regions contain their "
-        "radio and were sent flagged ON_GROUND (a radio on the ground, `gcs/region/ground.py`), "
-        "from when, and the take-offs and landings their regions held "
-        "(`companion/pad_clearance.py`).",
+        "Ghosts (means per run; the region columns for the aware planner, which reads "
+        "regions): how often the ghosts' regions contain their radio and were sent flagged "
+        "ON_GROUND (a radio on the ground, `gcs/region/ground.py`), from when, the take-offs "
+        "and landings their regions held (`companion/pad_clearance.py`), and what the ghosts "
+        f"cost against `{CONTROL}` on the same seeds: benign path length and mean arrival time "
+        "(aware / trust-RID).",
         "",
         "| Attack | Aircraft | ghost regions holding the radio | on the ground | first on the "
-        "ground (s) | aircraft held by a ghost | held by ghosts (aircraft-s) |",
-        "|" + "---|" * 7,
+        "ground (s) | aircraft held by a ghost | held by ghosts (aircraft-s) | path vs "
+        f"`{CONTROL}` | arrival vs `{CONTROL}` (s) |",
+        "|" + "---|" * 9,
         *rows,
     ]

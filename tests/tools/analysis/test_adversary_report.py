@@ -24,19 +24,21 @@ def _sweep(*records: RunRecord) -> SweepResults:
 
 def test_each_cell_meets_or_says_by_how_much_it_misses() -> None:
     ok = {"containment_rate": 0.95, "false_alerts": 0, "goal_reached_fraction": 1.0}
+    control = {"benign_path_length_m": 1000.0, "mean_arrival_time_s": 60.0}
     records = [
-        _record("line", "aware", 0, nmac_benign_spoofer=0, **ok),
-        _record("line", "aware", 1, nmac_benign_spoofer=0, **ok),
+        _record("line", "aware", 0, nmac_benign_spoofer=0, **ok, **control),
+        _record("line", "aware", 1, nmac_benign_spoofer=0, **ok, **control),
         _record("line", "trust-rid", 0, nmac_benign_spoofer=1, **ok),
         _record("line", "trust-rid", 1, nmac_benign_spoofer=2, **ok),
         _record("orbit", "aware", 0, nmac_benign_spoofer=1, **{**ok, "containment_rate": 0.8}),
         _record("orbit", "trust-rid", 0, nmac_benign_spoofer=2, **ok),
         _record("two-ghosts", "aware", 0, nmac_benign_spoofer=0, ghosts_alerted=2,
                 ghost_on_ground_fraction=0.6, aircraft_held_by_ghosts=1, pad_hold_s_ghosts=12.0,
+                benign_path_length_m=1100.0, mean_arrival_time_s=62.0,
                 **{**ok, "goal_reached_fraction": 0.9}),
         _record("two-ghosts", "aware", 1, nmac_benign_spoofer=0, ghosts_alerted=2,
                 ghost_on_ground_fraction=0.8, aircraft_held_by_ghosts=0, pad_hold_s_ghosts=0.0,
-                **ok),
+                benign_path_length_m=1100.0, mean_arrival_time_s=64.0, **ok),
         _record("two-ghosts", "trust-rid", 0, nmac_benign_spoofer=0, ghosts_alerted=2,
                 **{**ok, "goal_reached_fraction": 0.5}),
     ]  # fmt: skip
@@ -54,7 +56,9 @@ def test_each_cell_meets_or_says_by_how_much_it_misses() -> None:
     assert "deliveries 5.0 % lost to ghosts" in ghosts
     assert "Spoofers taken for a radio on the ground" not in "".join(lines)  # no run says
     ghost_rows = [line for line in lines if line.startswith("| `two-ghosts`") and line != ghosts]
-    assert ghost_rows == ["| `two-ghosts` | 16 | n/a | 0.70 | n/a | 0.50 | 6.0 |"]
+    assert ghost_rows == [
+        "| `two-ghosts` | 16 | n/a | 0.70 | n/a | 0.50 | 6.0 | +10.0 % / n/a | +3.0 / n/a |"
+    ]  # paths (1100 + 1100) / (1000 + 1000); arrivals ((62 - 60) + (64 - 60)) / 2
 
 
 def test_a_spoofer_taken_for_a_radio_on_the_ground_is_named() -> None:
