@@ -425,7 +425,7 @@ class EstimationPipeline:
         if heard is None or not heard.recent:
             return False
         claim = heard.recent[-1].claimed_p_enu_m
-        return ground.update(est.uas_id, now_s, est.p_enu_m, est.cov_enu_m2, claim)
+        return ground.update(est.uas_id, now_s, est.p_enu_m, est.cov_enu_m2, est.v_enu_m_s, claim)
 
     # --- introspection --------------------------------------------------------------------
 

@@ -452,7 +452,8 @@ class GroundTransmitterConfig:
     ground (from ``rssi_filter.ground_z_enu_m`` up to ``max_height_m``), flagged ON_GROUND.
 
     Still: over the last ``window_s`` the track's horizontal estimates all lie within
-    ``still_radius_m`` of their mean (``keep_radius_m`` once recognised), while its claimed
+    ``still_radius_m`` of their mean (``keep_radius_m`` once recognised) and the mean of its
+    velocity estimates is below twice that radius over the window, while its claimed
     position moved at least ``min_claim_travel_m``; and low: the ground layer within
     ``height_sigmas`` standard deviations of its estimated height. Off by default (every
     region as estimated); it needs the ground (``rssi_filter.ground_z_enu_m``)."""

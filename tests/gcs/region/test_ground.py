@@ -40,13 +40,18 @@ def _watch(
     claim_at: Callable[[float], FloatArray],
     until_s: float,
     sigma_z_m: float = 20.0,  # the 30 m estimates reach the ground layer within 2 sigma
+    velocity_enu_m_s: FloatArray | None = None,  # default: the estimates' own rate of change
 ) -> list[bool]:
     watch = GroundWatch(CFG, 0.0)
     cov = np.diag([100.0, 100.0, sigma_z_m**2])
     times = np.arange(0.0, until_s + 1e-9, CYCLE_S)
-    return [
-        watch.update("G", float(t), estimate_at(float(t)), cov, claim_at(float(t))) for t in times
-    ]
+    flags = []
+    for t in times:
+        p = estimate_at(float(t))
+        v = (p - estimate_at(float(t) - CYCLE_S)) / CYCLE_S
+        v = v if velocity_enu_m_s is None else velocity_enu_m_s
+        flags.append(watch.update("G", float(t), p, cov, v, claim_at(float(t))))
+    return flags
 
 
 def _flying_claim(t: float) -> FloatArray:
@@ -67,6 +72,15 @@ def test_a_still_radio_whose_claim_flies_is_on_the_ground_after_one_window() -> 
 def test_a_moving_transmitter_or_a_claim_that_hovers_is_not() -> None:
     assert not any(_watch(lambda t: np.array([4.0 * t, 0.0, 0.0]), _flying_claim, 60.0))
     assert not any(_watch(_still, lambda t: np.array([50.0, 50.0, 10.0]), 60.0))  # hovers
+
+
+def test_a_track_that_lags_its_moving_spoofer_is_not() -> None:
+    """Estimates stuck in place while the track's own velocity says 6 m/s: a lagging track,
+    not a radio on the ground."""
+    moving = np.array([6.0, 0.0, 0.0])
+    assert not any(_watch(_still, _flying_claim, 60.0, velocity_enu_m_s=moving))
+    slow = np.array([2.0, 0.0, 0.0])  # under 2 R / W = 2.7 m/s: still, as estimates go
+    assert any(_watch(_still, _flying_claim, 60.0, velocity_enu_m_s=slow))
 
 
 def test_a_still_transmitter_known_to_be_high_is_not() -> None:
