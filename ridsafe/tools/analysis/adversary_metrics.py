@@ -63,6 +63,7 @@ __all__ = [
     "DEFAULT_D_SAFE_M",
     "adversaries_of",
     "adversary_metrics",
+    "first_alert_s",
     "harm_lie_m",
     "pad_holds",
     "per_adversary",
@@ -114,7 +115,8 @@ def _harm(
     return {"lie_at_alert_m": at_alert, "harm_time_s": harm, "alerted_before_harm": before}
 
 
-def _alert_s(run: RunLog, serial: str) -> float | None:
+def first_alert_s(run: RunLog, serial: str) -> float | None:
+    """When ``serial``'s first ``raised`` alert came (None: never)."""
     for t_s, alert in run.alerts:
         if str(alert.get("uas_id")) == serial and alert.get("state") == "raised":
             return t_s
@@ -170,7 +172,7 @@ def per_adversary(run: RunLog, min_height_m: float) -> list[dict[str, Any]]:
     for adversary in adversaries_of(run):
         serial, role = str(adversary["serial"]), str(adversary.get("role"))
         column = truth.column(int(adversary["sysid"]))
-        alert = _alert_s(run, serial)
+        alert = first_alert_s(run, serial)
         row: dict[str, Any] = {"serial": serial, "role": role, "alert_time_s": alert}
         if column is not None and role == "spoofer":
             others = np.full(benign.size, column, dtype=np.int64)

@@ -23,7 +23,13 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["airborne", "count_entries", "count_entry_events", "pair_entry_events"]
+__all__ = [
+    "airborne",
+    "count_entries",
+    "count_entry_events",
+    "entry_event_samples",
+    "pair_entry_events",
+]
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -44,6 +50,17 @@ def count_entry_events(inside: BoolArray, separated: BoolArray) -> IntArray:
     k, pair = np.nonzero(inside)
     keys = np.unique(pair.astype(np.int64) * (n_samples + 1) + episode[k, pair])
     return np.bincount(keys // (n_samples + 1), minlength=n_pairs).astype(np.int64)
+
+
+def entry_event_samples(inside: BoolArray, separated: BoolArray) -> list[IntArray]:
+    """The events of one pair's (T,) sample masks, in time order, each as the indices of its
+    inside samples: ``len`` of the result is :func:`count_entry_events` of that column."""
+    episode = np.cumsum(separated)
+    k = np.flatnonzero(inside)
+    if k.size == 0:
+        return []
+    starts = np.flatnonzero(np.diff(episode[k])) + 1
+    return [part.astype(np.int64) for part in np.split(k, starts)]
 
 
 def count_entries(inside: BoolArray) -> int:

@@ -77,3 +77,25 @@ def test_pair_events_are_the_same_in_blocks_as_pair_by_pair(
     )
     monkeypatch.setattr(encounters, "_PAIR_BLOCK", 4)  # 21 pairs in 6 blocks
     assert pair_entry_events(p, flying, i, j, 50.0) == whole == pair_by_pair > 0
+
+
+def test_entry_event_samples_lists_each_event_s_inside_samples() -> None:
+    inside = np.array([0, 1, 1, 0, 0, 1, 0, 1], dtype=bool)
+    separated = np.array([1, 0, 0, 1, 0, 0, 0, 0], dtype=bool)
+    # inside 1-2, separated at 3, inside 5 and 7 with nothing apart between them: two events
+    events = encounters.entry_event_samples(inside, separated)
+    assert [e.tolist() for e in events] == [[1, 2], [5, 7]]
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_entry_event_samples_are_as_many_as_counted(seed: int) -> None:
+    """Differential: the listing and the counter agree on every column of random masks."""
+    rng = np.random.default_rng(seed)
+    inside = rng.random((400, 8)) < rng.uniform(0.05, 0.6)
+    separated = ~inside & (rng.random((400, 8)) < 0.5)
+    counts = count_entry_events(inside, separated)
+    for column in range(8):
+        events = encounters.entry_event_samples(inside[:, column], separated[:, column])
+        assert len(events) == counts[column]
+        listed = np.concatenate(events) if events else np.zeros(0, dtype=np.int64)
+        assert listed.tolist() == np.flatnonzero(inside[:, column]).tolist()

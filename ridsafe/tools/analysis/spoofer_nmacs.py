@@ -1,0 +1,183 @@
+"""Where a run's benign-spoofer NMACs happen: one row per NMAC event, from the log alone.
+
+The events are those ``nmac_benign_spoofer`` counts (``analysis.encounters``: a run of
+samples closer than the NMAC radius with both airborne, between two samples apart), for every
+spoofer of ``/run/meta``'s ``adversaries`` (or its one ``spoofer``). Per event, at its closest
+sample:
+
+- ``distance_m``: the true 3D distance; ``height_m``: the benign aircraft's true height (ENU z);
+- ``phase``: the benign's mission phase then (the ``to`` of its companion's last ``phase``
+  event, ``/companion/events``) and ``stage``, the phase's part of a flight (:class:`Stage`);
+- ``from_pad_m`` / ``from_goal_m``: the benign's horizontal distance from its start and goal;
+- ``alert_lag_s``: time since the spoofer's first raised alert (negative: the NMAC came before
+  the alert; None: never alerted);
+- ``in_region``: whether the spoofer's true position lay inside the last unsafe region the GCS
+  had sent for it no more than :data:`REGION_STALE_S` before (None: no such region).
+
+``ridsafe report`` lists them for the aware planner's runs (``analysis.adversary_report``).
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ridsafe.common import topics
+from ridsafe.common.ellipsoid import mahalanobis2
+from ridsafe.tools.analysis.adversary_metrics import adversaries_of, first_alert_s
+from ridsafe.tools.analysis.encounters import airborne, entry_event_samples
+from ridsafe.tools.analysis.run_arrays import RunLog
+from ridsafe.tools.runlog.reader import read_records
+
+__all__ = ["REGION_STALE_S", "SpooferNmac", "Stage", "spoofer_nmacs", "stage_of"]
+
+FloatArray = NDArray[np.float64]
+
+#: A region older than this at the NMAC (s) says nothing about it (the GCS sends every 0.25 s).
+REGION_STALE_S = 1.0
+
+
+class Stage(enum.Enum):
+    """The part of a delivery flight a mission phase belongs to (``companion/mission.Phase``)."""
+
+    TAKE_OFF = "take-off and climb"
+    CRUISE = "cruise"
+    ARRIVAL = "arrival and landing"
+    UNKNOWN = "unknown"
+
+
+_STAGES: Mapping[str, Stage] = {
+    "wait_departure": Stage.TAKE_OFF,
+    "set_guided": Stage.TAKE_OFF,
+    "arm": Stage.TAKE_OFF,
+    "takeoff": Stage.TAKE_OFF,
+    "climb": Stage.TAKE_OFF,
+    "cruise": Stage.CRUISE,
+    "arrived": Stage.ARRIVAL,
+    "descend": Stage.ARRIVAL,
+    "hover": Stage.ARRIVAL,
+    "land": Stage.ARRIVAL,
+    "done": Stage.ARRIVAL,
+}
+
+
+def stage_of(phase: str | None) -> Stage:
+    """The :class:`Stage` of a mission phase's value (``Stage.UNKNOWN`` for none or another)."""
+    return _STAGES.get(phase or "", Stage.UNKNOWN)
+
+
+@dataclass(frozen=True)
+class SpooferNmac:
+    """One benign-spoofer NMAC event (fields: the module docstring)."""
+
+    t_s: float
+    benign_sysid: int
+    spoofer_serial: str
+    distance_m: float
+    height_m: float
+    phase: str | None
+    stage: Stage
+    from_pad_m: float | None
+    from_goal_m: float | None
+    alert_lag_s: float | None
+    in_region: bool | None
+
+
+def _spoofers(run: RunLog) -> list[tuple[int, str]]:
+    """(sysid, serial) of every spoofer the run lists."""
+    listed = [
+        (int(a["sysid"]), str(a["serial"]))
+        for a in adversaries_of(run)
+        if a.get("role") == "spoofer"
+    ]
+    if listed or run.spoofer_sysid is None:
+        return listed
+    return [(run.spoofer_sysid, str(run.spoofer_serial))]
+
+
+def _phases(run: RunLog) -> dict[int, list[tuple[float, str]]]:
+    """sysid -> [(time, phase entered)] from the companions' ``phase`` events, in time order."""
+    out: dict[int, list[tuple[float, str]]] = {}
+    if not run.path.exists():
+        return out
+    for _topic, t_s, record in read_records(run.path, topics=(topics.COMPANION_EVENTS,)):
+        if record.get("event") == "phase" and record.get("to") is not None:
+            out.setdefault(int(record.get("sysid", 0)), []).append((t_s, str(record["to"])))
+    return {sysid: sorted(items) for sysid, items in out.items()}
+
+
+def _phase_at(phases: list[tuple[float, str]], t_s: float) -> str | None:
+    before = [phase for t, phase in phases if t <= t_s]
+    return before[-1] if before else None
+
+
+def _in_region(run: RunLog, serial: str, t_s: float, truth_enu_m: FloatArray) -> bool | None:
+    regions = run.regions.select(
+        (run.regions.uas_id == serial)
+        & (run.regions.t_s <= t_s)
+        & (run.regions.t_s >= t_s - REGION_STALE_S)
+    )
+    if regions.t_s.size == 0:
+        return None
+    last = int(np.argmax(regions.t_s))
+    m2 = mahalanobis2(
+        truth_enu_m[None, :] - regions.center_enu_m[last : last + 1],
+        regions.cov_enu_m2[last : last + 1],
+    )
+    return bool(np.isfinite(m2[0]) and m2[0] <= regions.chi2[last])
+
+
+def _horizontal_m(p_enu_m: FloatArray, other: object) -> float | None:
+    if not isinstance(other, list | tuple) or len(other) < 2:
+        return None
+    return float(np.hypot(p_enu_m[0] - float(other[0]), p_enu_m[1] - float(other[1])))
+
+
+def spoofer_nmacs(run: RunLog, min_height_m: float = 1.0) -> list[SpooferNmac]:
+    """Every benign-spoofer NMAC event of ``run``, in time order (``min_height_m``: airborne
+    height, as the metrics use)."""
+    truth = run.truth
+    if truth.t_s.size == 0:
+        return []
+    flying = airborne(truth.p_enu_m, truth.armed, min_height_m)
+    aircraft = {int(a["sysid"]): a for a in run.meta.get("aircraft") or [] if "sysid" in a}
+    phases = _phases(run)
+    events: list[SpooferNmac] = []
+    for spoofer_sysid, serial in _spoofers(run):
+        s = truth.column(spoofer_sysid)
+        if s is None:
+            continue
+        alert_s = first_alert_s(run, serial)
+        for sysid in run.benign_sysids:
+            b = truth.column(sysid)
+            if b is None:
+                continue
+            d = np.linalg.norm(truth.p_enu_m[:, b] - truth.p_enu_m[:, s], axis=-1)
+            with np.errstate(invalid="ignore"):
+                inside = (d < run.nmac_threshold_m) & flying[:, b] & flying[:, s]
+                separated = d >= run.nmac_threshold_m
+            for samples in entry_event_samples(inside, separated):
+                k = int(samples[np.argmin(d[samples])])
+                t_s, p = float(truth.t_s[k]), truth.p_enu_m[k, b]
+                phase = _phase_at(phases.get(sysid, []), t_s)
+                meta = aircraft.get(sysid, {})
+                events.append(
+                    SpooferNmac(
+                        t_s=t_s,
+                        benign_sysid=sysid,
+                        spoofer_serial=serial,
+                        distance_m=float(d[k]),
+                        height_m=float(p[2]),
+                        phase=phase,
+                        stage=stage_of(phase),
+                        from_pad_m=_horizontal_m(p, meta.get("start_enu_m")),
+                        from_goal_m=_horizontal_m(p, meta.get("goal_enu_m")),
+                        alert_lag_s=None if alert_s is None else t_s - alert_s,
+                        in_region=_in_region(run, serial, t_s, truth.p_enu_m[k, s]),
+                    )
+                )
+    return sorted(events, key=lambda e: (e.t_s, e.benign_sysid, e.spoofer_serial))
