@@ -2,19 +2,27 @@
 
 ``ridsafe metrics OUT/run.mcap`` prints one line per metric (``n/a`` where it does not
 apply); ``--json`` prints the dict of ``ridsafe.tools.analysis.metrics.compute_metrics`` (``null``
-where it does not apply). A file that cannot be read as a run log: message on stderr, exit 1.
-Definitions: the docstring of ``ridsafe.tools.analysis.metrics``.
+where it does not apply). ``--nmacs`` adds every benign-spoofer NMAC, one line each (in JSON:
+``spoofer_nmac_events``, a list of objects): when, how close, at what height, in which stage of
+the benign aircraft's flight, how long after the spoofer's alert, and whether the spoofer was
+inside its unsafe region (``ridsafe.tools.analysis.spoofer_nmacs``). A file that cannot be read
+as a run log: message on stderr, exit 1. Definitions: the docstring of
+``ridsafe.tools.analysis.metrics``.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 from ridsafe.common.errors import RidsafeError
 from ridsafe.tools.analysis.metrics import METRIC_KEYS, compute_metrics
+from ridsafe.tools.analysis.run_arrays import load_run
+from ridsafe.tools.analysis.spoofer_nmacs import SpooferNmac, spoofer_nmacs
 
 # metric -> (label, unit, format)
 _DISPLAY: dict[str, tuple[str, str, str]] = {
@@ -57,6 +65,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     parser.add_argument("log", help="the run log, e.g. OUT/run.mcap")
     parser.add_argument("--json", action="store_true", help="print the metrics as JSON")
+    parser.add_argument(
+        "--nmacs", action="store_true", help="also list every benign-spoofer NMAC, one a line"
+    )
     parser.set_defaults(func=run)
 
 
@@ -71,9 +82,29 @@ def format_table(metrics: Mapping[str, float | int | None]) -> str:
     return "\n".join(lines)
 
 
+def format_nmacs(events: Sequence[SpooferNmac]) -> str:
+    """One line per benign-spoofer NMAC event (``--nmacs``)."""
+    lines = [f"benign-spoofer NMACs: {len(events)}"]
+    for e in events:
+        since = "never alerted" if e.alert_lag_s is None else f"{e.alert_lag_s:+.1f} s from alert"
+        region = {None: "no region", True: "inside its region", False: "outside its region"}
+        lines.append(
+            f"  t {e.t_s:6.1f} s  aircraft {e.benign_sysid} - {e.spoofer_serial}  "
+            f"{e.distance_m:.1f} m  height {e.height_m:.1f} m  {e.stage.value} "
+            f"({e.phase or 'no phase'})  {since}  spoofer {region[e.in_region]}"
+        )
+    return "\n".join(lines)
+
+
+def _as_json(event: SpooferNmac) -> dict[str, Any]:
+    return {**dataclasses.asdict(event), "stage": event.stage.value}
+
+
 def run(args: argparse.Namespace) -> int:
     try:
-        metrics = compute_metrics(args.log)
+        run_log = load_run(args.log)
+        metrics = compute_metrics(run_log)
+        events = spoofer_nmacs(run_log) if args.nmacs else []
     except (RidsafeError, OSError) as exc:
         print(f"ridsafe metrics: {exc}", file=sys.stderr)
         return 1
@@ -81,7 +112,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"ridsafe metrics: {args.log}: malformed run log: {exc!r}", file=sys.stderr)
         return 1
     if args.json:
-        print(json.dumps(metrics, indent=2))
+        extra = {"spoofer_nmac_events": [_as_json(e) for e in events]} if args.nmacs else {}
+        print(json.dumps({**metrics, **extra}, indent=2))
     else:
-        print(format_table(metrics))
+        print(format_table(metrics) + ("\n" + format_nmacs(events) if args.nmacs else ""))
     return 0

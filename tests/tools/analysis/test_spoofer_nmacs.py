@@ -3,6 +3,7 @@ of them: hand-built run logs written with the real recorder, every field worked 
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +22,7 @@ from tests.tools.analysis.test_metrics import (
     PASSER,
     SPOOFER_SERIAL,
     RunSpec,
+    _cli,
     alert,
     opposite,
     region,
@@ -130,3 +132,19 @@ def test_the_report_lists_the_aware_planners_nmacs_from_the_logs(tmp_path: Path)
     )
     assert "Logs not read: `pursue` 16 aware seed 4" in text
     assert "never-read" not in text
+
+
+def test_ridsafe_metrics_lists_the_nmacs(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = _pass_run(tmp_path, [phase(0.0, 1, "cruise"), alert(20.0)])
+    code, out, _err = _cli([str(path), "--nmacs"], capsys)
+    assert code == 0
+    assert "benign-spoofer NMACs: 1" in out
+    assert "aircraft 1 - RSAF800000666  40.0 m  height 60.0 m  cruise (cruise)" in out
+    assert "+10.0 s from alert  spoofer no region" in out
+    code, out, _err = _cli([str(path), "--json", "--nmacs"], capsys)
+    event = json.loads(out)["spoofer_nmac_events"][0]
+    assert (event["stage"], event["distance_m"], event["in_region"]) == ("cruise", 40.0, None)
+    code, out, _err = _cli([str(path), "--json"], capsys)
+    assert "spoofer_nmac_events" not in json.loads(out)
