@@ -8,26 +8,18 @@ hurt. The bar (aware): NMACs <= ``MAX_AWARE_NMAC`` per run and at most ``NMAC_RA
 trust-RID's where trust-RID has >= ``TRUST_NMAC_FLOOR``; containment >= ``MIN_CONTAINMENT``;
 no false alert; ghost cells deliver at least ``1 - MAX_GHOST_DELIVERY_LOSS`` of the control cell
 ``line`` on the same seeds (trust-RID's cost shown beside).
-
-Then every benign-spoofer NMAC of the aware planner, one row each, with its flight stage,
-height, distances from pad and goal, time since the alert and whether the spoofer was inside
-its region (``analysis.spoofer_nmacs``); only the logs of the runs that had one are read.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
-from ridsafe.tools.analysis.run_arrays import load_run
-from ridsafe.tools.analysis.spoofer_nmacs import SpooferNmac, Stage, spoofer_nmacs
 from ridsafe.tools.analysis.sweep_results import (
     RunRecord,
     SweepResults,
     format_number,
     mean_metric,
 )
-from ridsafe.tools.runlog.reader import LogReadError
-from ridsafe.tools.sweep.folder import LOG_FILE
 
 __all__ = ["AXIS", "adversary_section"]
 
@@ -151,7 +143,6 @@ def adversary_section(sweeps: Sequence[SweepResults]) -> list[str]:
             + ".",
         ]
     lines += _ghost_lines(records, cells)
-    lines += _nmac_lines(records)
     lines += [
         "",
         f"Bar (issue 16): aware NMACs <= {MAX_AWARE_NMAC}/run and <= {NMAC_RATIO} x trust-RID's "
@@ -241,64 +232,3 @@ def _ghost_lines(records: Sequence[RunRecord], cells: Sequence[str | None]) -> l
         "|" + "---|" * 9,
         *rows,
     ]
-
-
-def _nmac_row(record: RunRecord, event: SpooferNmac) -> str:
-    def signed(value: float | None) -> str:
-        return "never" if value is None else f"{value:+.1f}"
-
-    contained = {None: "no region", True: "inside", False: "outside"}[event.in_region]
-    row = [
-        f"`{_cell(record)}`",
-        str(record.density),
-        str(record.spec.seed),
-        f"{event.t_s:.1f}",
-        f"{event.distance_m:.1f}",
-        f"{event.height_m:.1f}",
-        f"{event.stage.value} ({event.phase or 'no phase'})",
-        f"{format_number(event.from_pad_m, 0)} / {format_number(event.from_goal_m, 0)}",
-        signed(event.alert_lag_s),
-        contained,
-    ]
-    return "| " + " | ".join(row) + " |"
-
-
-def _nmac_lines(records: Sequence[RunRecord]) -> list[str]:
-    """One row per benign-spoofer NMAC of the aware planner, read from the runs' logs, and a
-    count per flight stage."""
-    rows: list[str] = []
-    unread: list[str] = []
-    stages: dict[Stage, int] = {}
-    with_nmacs = [
-        r
-        for r in records
-        if r.planner == "aware" and (r.metrics.get("nmac_benign_spoofer") or 0) > 0
-    ]
-    for record in sorted(with_nmacs, key=lambda r: (r.density, str(_cell(r)), r.spec.seed)):
-        try:
-            events = spoofer_nmacs(load_run(record.run_dir / LOG_FILE))
-        except (OSError, LogReadError) as error:
-            unread.append(f"{_label(record)} ({error})")
-            continue
-        for event in events:
-            stages[event.stage] = stages.get(event.stage, 0) + 1
-            rows.append(_nmac_row(record, event))
-    if not with_nmacs:
-        return []
-    counts = ", ".join(f"{stage.value} {stages[stage]}" for stage in Stage if stage in stages)
-    lines = [
-        "",
-        f"Where the aware planner's benign-spoofer NMACs happen ({len(rows)} in "
-        f"{len(with_nmacs) - len(unread)} runs; {counts or 'none read'}): at the closest sample, "
-        "the benign aircraft's height, flight stage (its mission phase), horizontal distance "
-        "from its pad and its goal, the time since the spoofer's alert (negative: before it), "
-        "and whether the spoofer was inside its last unsafe region (`analysis/spoofer_nmacs.py`).",
-        "",
-        "| Attack | Aircraft | seed | t (s) | distance (m) | height (m) | stage (phase) | from pad "
-        "/ goal (m) | since alert (s) | spoofer vs its region |",
-        "|" + "---|" * 10,
-        *rows,
-    ]
-    if unread:
-        lines += ["", "Logs not read: " + "; ".join(unread) + "."]
-    return lines

@@ -5,7 +5,8 @@ Input: one or more sweep folders (``ridsafe sweep``), e.g. our defaults and pape
 ``report.md`` (tables in the paper's layout: metrics x densities, planners in blocks; ``(n=k)``
 marks cells where fewer runs than completed have the metric; with the plots, the detectors'
 ROC AUC and operating point per sweep variant, ``analysis.detector_roc``, read from every
-run's log), ``report.csv`` (one row per
+run's log; where the aware planner's benign-spoofer NMACs happened, ``analysis.nmac_report``,
+read from the logs of the runs that had one), ``report.csv`` (one row per
 cell; ``summary``: mean, median, p90 or max over the runs), and the plots of
 :mod:`ridsafe.tools.analysis.plots`.
 """
@@ -22,6 +23,7 @@ from pathlib import Path
 from ridsafe.tools.analysis.adversary_report import adversary_section
 from ridsafe.tools.analysis.channel_report import channel_section
 from ridsafe.tools.analysis.detector_roc import DetectorRoc, detector_rocs, roc_rows
+from ridsafe.tools.analysis.nmac_report import nmac_section
 from ridsafe.tools.analysis.published import PUBLISHED_RUNS
 from ridsafe.tools.analysis.sweep_results import (
     PLANNER_LABELS,
@@ -150,6 +152,7 @@ def render_markdown(
             lines += ["", f"## {section}", "", *_table(header, rows)]
     lines += adversary_section(sweeps)  # issue 16's attack cells, if the sweep has them
     lines += channel_section(sweeps)  # issue 15's channel settings, if a sweep is one
+    lines += nmac_section(sweeps)  # the aware planner's NMACs, from the logs of those runs
     rows = [
         row for label, variant_rocs in (rocs or {}).items() for row in roc_rows(label, variant_rocs)
     ]

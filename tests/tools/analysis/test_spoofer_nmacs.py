@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from ridsafe.common import topics
-from ridsafe.tools.analysis.adversary_report import adversary_section
 from ridsafe.tools.analysis.metrics import compute_metrics
+from ridsafe.tools.analysis.nmac_report import nmac_section
 from ridsafe.tools.analysis.run_arrays import load_run
 from ridsafe.tools.analysis.spoofer_nmacs import Stage, spoofer_nmacs, stage_of
 from ridsafe.tools.analysis.sweep_results import RunRecord, SweepResults
@@ -105,11 +105,11 @@ def test_stage_of_a_phase(name: str | None, stage: Stage) -> None:
 
 
 def test_the_report_lists_the_aware_planners_nmacs_from_the_logs(tmp_path: Path) -> None:
-    """Only aware runs with an NMAC are read; a run whose log is gone is named, not hidden."""
+    """Only aware runs with an NMAC are read; a run whose log is gone is named, not hidden;
+    the summary counts by stage, before the alert, and the spoofer against its region."""
     run_dir = tmp_path / "seed3"
     run_dir.mkdir()
-    extra = [phase(0.0, 1, "cruise"), alert(20.0)]
-    _pass_run(run_dir, extra)
+    _pass_run(run_dir, [phase(0.0, 1, "cruise"), alert(20.0)])
     (run_dir / "run.mcap").rename(run_dir / LOG_FILE)
 
     def record(directory: Path, planner: str, seed: int, nmacs: int) -> RunRecord:
@@ -123,15 +123,18 @@ def test_the_report_lists_the_aware_planners_nmacs_from_the_logs(tmp_path: Path)
         record(tmp_path / "never-read", "aware", 5, 0),
     )
     sweep = SweepResults(tmp_path, "adversaries", "c.yaml", records, (), 0, 0)
-    lines = adversary_section([sweep])
+    lines = nmac_section([sweep])
+    label = "adversaries [adversary=pursue]"
+    # 2 of 3 aware runs had one (1 read); cruise 1; after the alert; no region
+    assert f"| {label} | 16 | 2 / 3 | 1 | 0 | 1 | 0 | 0 | 0 | 0 / 0 / 1 |" in lines
+    event = f"| {label} | 16 | 3 | 30.0 | 40.0 | 60.0 | cruise (cruise) | 300 / 500 | +10.0 | "
+    event += "no region |"
+    assert event in lines
     text = "\n".join(lines)
-    assert "(1 in 1 runs; cruise 1)" in text
-    assert (
-        "| `pursue` | 16 | 3 | 30.0 | 40.0 | 60.0 | cruise (cruise) | 300 / 500 | +10.0 | "
-        "no region |" in lines
-    )
-    assert "Logs not read: `pursue` 16 aware seed 4" in text
+    assert f"Logs not read: {label} 16 seed 4" in text
     assert "never-read" not in text
+    quiet = SweepResults(tmp_path, "a", "c.yaml", (record(run_dir, "trust-rid", 3, 1),), (), 0, 0)
+    assert nmac_section([quiet]) == []  # trust-RID's NMACs are not listed
 
 
 def test_ridsafe_metrics_lists_the_nmacs(
