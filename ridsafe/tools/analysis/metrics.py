@@ -37,6 +37,10 @@ becomes arrays (truth interpolation) in :mod:`ridsafe.tools.analysis.run_arrays`
   heard by ``DETECTION_RECEIVERS`` (4) distinct aircraft (``/radio/receptions``, any RID
   message type): how long the GCS needed once it could in principle localise. Negative when
   it alerted earlier; None without alert or without such receptions.
+- ``region_delay_s``: the spoofer's first unsafe region at or after ``alert_time_s`` minus
+  ``alert_time_s``: how long the planners were told "a liar" before being told where it is.
+  Alerted but no region before the truth ends: the truth's end minus the alert (a lower
+  bound: the track never started). None without alert.
 - ``false_alerts``: ``raised`` alerts for any uas_id but the spoofer's serial.
 - ``false_alerts_per_aircraft_hour``: ``false_alerts`` over the benign aircraft's flight
   time (number of benign aircraft times the truth's time span, in hours); None without
@@ -99,6 +103,7 @@ METRIC_KEYS: tuple[str, ...] = (
     "goal_reached_fraction",
     "alert_time_s",
     "detection_delay_s",
+    "region_delay_s",
     "false_alerts",
     "false_alerts_per_aircraft_hour",
     "wall_clock_s",
@@ -145,6 +150,16 @@ def detection_delay_s(run: RunLog) -> float | None:
     if alert is None or run.spoofer_heard_s is None:
         return None
     return alert - run.spoofer_heard_s
+
+
+def region_delay_s(run: RunLog) -> float | None:
+    regions = _spoofer_regions_after_alert(run)
+    alert = alert_time_s(run)
+    if regions is None or alert is None:
+        return None
+    if regions.t_s.size:
+        return float(regions.t_s.min()) - alert
+    return float(run.truth.t_s[-1]) - alert if run.truth.t_s.size else None
 
 
 def false_alerts(run: RunLog) -> int:
@@ -311,6 +326,7 @@ def compute_metrics(
         "goal_reached_fraction": _goal_fraction(run),
         "alert_time_s": alert_time_s(run),
         "detection_delay_s": detection_delay_s(run),
+        "region_delay_s": region_delay_s(run),
         "false_alerts": false_alerts(run),
         "false_alerts_per_aircraft_hour": false_alerts_per_aircraft_hour(run),
         "wall_clock_s": None if wall is None else float(wall),

@@ -109,6 +109,8 @@ ROWS: tuple[Row, ...] = (
     Row("detection_delay_s", "Detection delay, median (s)", EXTRA, 2, "median"),
     Row("detection_delay_s", "Detection delay, 90th percentile (s)", EXTRA, 2, "p90"),
     Row("detection_delay_s", "Detection delay, worst (s)", EXTRA, 2, "max"),
+    Row("region_delay_s", "First unsafe region after the alert (s)", EXTRA, 2),
+    Row("region_delay_s", "First unsafe region after the alert, worst (s)", EXTRA, 2, "max"),
     Row("false_alerts", "False alerts", EXTRA),
     Row("false_alerts_per_aircraft_hour", "False alerts per aircraft-hour", EXTRA, 2),
     Row("min_distance_to_spoofer_m", "Min distance to spoofer (m)", EXTRA, 1),

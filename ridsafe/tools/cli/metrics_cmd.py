@@ -37,6 +37,7 @@ _DISPLAY: dict[str, tuple[str, str, str]] = {
     "goal_reached_fraction": ("goal reached", "fraction", ".3f"),
     "alert_time_s": ("first alert", "s", ".2f"),
     "detection_delay_s": ("alert after 4 aircraft heard it", "s", ".2f"),
+    "region_delay_s": ("first region after the alert", "s", ".2f"),
     "false_alerts": ("false alerts", "alerts", "d"),
     "false_alerts_per_aircraft_hour": ("false alerts per aircraft-hour", "/ac-h", ".2f"),
     "wall_clock_s": ("wall clock", "s", ".1f"),

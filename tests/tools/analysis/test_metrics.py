@@ -500,3 +500,23 @@ def test_cli_rejects_a_bad_file_with_exit_code_1(
     assert code == 1
     assert out == ""
     assert "bad.mcap" in err
+
+
+@pytest.mark.parametrize(
+    ("alert_s", "region_times_s", "expected_s"),
+    [
+        (10.0, [8.0, 12.5, 13.0], 2.5),  # a region before the alert does not count
+        (10.0, [], 50.0),  # alerted, never a region: the truth's end (60 s) minus the alert
+        (10.0, [5.0], 50.0),  # only a region before the alert: the same
+        (None, [12.5], None),  # no alert
+    ],
+)
+def test_region_delay_counts_from_the_alert_to_the_first_region_after_it(
+    tmp_path: Path, alert_s: float | None, region_times_s: list[float], expected_s: float | None
+) -> None:
+    extra = [region(t, (0.0, 0.0, 60.0), 100.0 * np.eye(3)) for t in region_times_s]
+    if alert_s is not None:
+        extra.append(alert(alert_s))
+    spec = RunSpec([PASSER], spoofer=still((0.0, 0.0, 60.0)), extra=extra)
+    result = metrics_of(tmp_path, spec)["region_delay_s"]
+    assert result == (None if expected_s is None else pytest.approx(expected_s))
