@@ -48,6 +48,8 @@ from ridsafe.common.udp import Address, UdpEndpoint
 logger = logging.getLogger(__name__)
 
 PEER_SEPARATOR = "@"
+#: The reason a core's counters give the datagrams the kernel dropped on a full buffer.
+KERNEL_OVERFLOW = "kernel_overflow"
 _MAX_CACHED_PEERS = 4096
 
 
@@ -78,6 +80,7 @@ class RunnerStats:
     late_ticks: int = 0
     unsent_bad_peer: int = 0
     foreign_dropped: int = 0  # datagrams from an address that is not the endpoint's peer
+    kernel_dropped: int = 0  # datagrams the kernel dropped for a full receive buffer
 
 
 class UdpRunner:
@@ -105,6 +108,7 @@ class UdpRunner:
         self.clock = clock
         self.tick_s = tick_s
         self.stats = RunnerStats()
+        self._kernel_drops_seen: dict[str, int] = {}
         self._stopping = False
         self._selector = selectors.DefaultSelector()
         for name, endpoint in self.endpoints.items():
@@ -155,14 +159,25 @@ class UdpRunner:
                 if not self._admit(now_s, name, endpoint, data, addr):
                     self.stats.foreign_dropped += 1
                     if self._count_foreign is not None:
-                        self._count_foreign(name, _foreign_reason(endpoint))
+                        self._count_foreign(name, _foreign_reason(endpoint), 1)
                     continue
                 inbound.append((self._peer_name(name, addr) if multi else name, data))
+            self._count_kernel_drops(name, endpoint)
         self.stats.datagrams_in += len(inbound)
         outbound = self.core.handle(now_s, inbound)
         for name, data in outbound:
             self._send(name, data)
         self.stats.ticks += 1
+
+    def _count_kernel_drops(self, name: str, endpoint: UdpEndpoint) -> None:
+        """The datagrams the kernel dropped on ``name`` since the last look, counted as
+        ``kernel_overflow`` with the core's other drops (``UdpStats.kernel_drops``)."""
+        new = endpoint.stats.kernel_drops - self._kernel_drops_seen.get(name, 0)
+        if new > 0:
+            self._kernel_drops_seen[name] = endpoint.stats.kernel_drops
+            self.stats.kernel_dropped += new
+            if self._count_foreign is not None:
+                self._count_foreign(name, KERNEL_OVERFLOW, new)
 
     def _admit(
         self, now_s: float, name: str, endpoint: UdpEndpoint, data: bytes, addr: Address
@@ -235,9 +250,9 @@ def parse_peer(peer: str) -> Address | None:
     return host, int(port)
 
 
-def _foreign_counter(core: SansIoCore) -> Callable[[str, str], None] | None:
+def _foreign_counter(core: SansIoCore) -> Callable[[str, str, int], None] | None:
     """Where the core counts what the runner drops before it (for ``/app/counters``): its
-    own ``count_foreign(name, reason)``, else its ``AppShell``'s, else nowhere."""
+    own ``count_foreign(name, reason, count)``, else its ``AppShell``'s, else nowhere."""
     counter = getattr(core, "count_foreign", None)
     if callable(counter):
         return counter  # type: ignore[no-any-return]

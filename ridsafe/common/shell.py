@@ -263,16 +263,18 @@ class AppShell:
         what = f"{type(received.message).__name__} from {sender} on {endpoint.name}"
         self._count_refused(reason, what)
 
-    def count_foreign(self, name: str, reason: str) -> None:
-        """Count a datagram the runner dropped before the core (``common.runner``: not from
-        the endpoint's locked peer or fixed remote) as refused for ``reason``."""
-        self._count_refused(reason, f"datagram on {name!r}")
+    def count_foreign(self, name: str, reason: str, count: int = 1) -> None:
+        """Count ``count`` datagrams the runner dropped before the core (``common.runner``:
+        not from the endpoint's locked peer or fixed remote, or lost in the kernel's full
+        receive buffer) as refused for ``reason``."""
+        self._count_refused(reason, f"datagram on {name!r}", count)
 
-    def _count_refused(self, reason: str, what: str) -> None:
-        count = self.counters.refused.get(reason, 0) + 1
-        self.counters.refused[reason] = count
-        level = logging.WARNING if count == 1 or count % 1000 == 0 else logging.DEBUG
-        logger.log(level, "%s: %s refused: %s (%d so far)", self.app, what, reason, count)
+    def _count_refused(self, reason: str, what: str, count: int = 1) -> None:
+        before = self.counters.refused.get(reason, 0)
+        total = self.counters.refused[reason] = before + count
+        first_or_thousand = before == 0 or total // 1000 > before // 1000
+        level = logging.WARNING if first_or_thousand else logging.DEBUG
+        logger.log(level, "%s: %s refused: %s (%d so far)", self.app, what, reason, total)
 
     # -- outbound ---------------------------------------------------------------------------
 

@@ -19,6 +19,13 @@ Network errors that a live link should survive (ICMP port unreachable surfacing 
 ECONNREFUSED/ECONNRESET, a full send buffer, an unreachable network) are logged (first of each
 kind at WARNING, later ones at DEBUG) and counted in :attr:`UdpEndpoint.stats`; ``send`` then
 returns False. Other OSErrors (e.g. a datagram too large) are bugs and propagate.
+
+Datagrams that arrive while the kernel's receive buffer is full (a flood, or a process that
+fell behind) are lost before any application code sees them. On Linux the endpoint asks the
+kernel to say how many (``SO_RXQ_OVFL``: the socket's running drop count comes with each
+datagram received) and keeps it in :attr:`UdpStats.kernel_drops`, so a runner can count them
+with the core's other drops; drops after the last datagram received are told with the next
+one. Elsewhere the count stays 0.
 """
 
 from __future__ import annotations
@@ -28,6 +35,7 @@ import errno
 import logging
 import re
 import socket
+import struct
 from dataclasses import dataclass
 from types import TracebackType
 
@@ -53,6 +61,9 @@ ALL_INTERFACES_HOST = "0.0.0.0"
 _MAX_DATAGRAM_BYTES = 65535
 _MAX_PORT = 65535
 _HOST_RE = re.compile(r"^[A-Za-z0-9](?:[A-Za-z0-9.-]*[A-Za-z0-9])?$")
+#: Linux's socket option for the receive queue's drop count (``<asm-generic/socket.h>``).
+_SO_RXQ_OVFL = getattr(socket, "SO_RXQ_OVFL", 40)
+_DROP_COUNT = struct.Struct("=I")
 
 # errno values a live link survives: count, log, carry on.
 _TRANSIENT_ERRNOS = frozenset(
@@ -138,6 +149,8 @@ class UdpStats:
     bytes_received: int = 0
     send_errors: int = 0
     recv_errors: int = 0
+    #: Datagrams the kernel dropped for a full receive buffer (Linux; module docstring).
+    kernel_drops: int = 0
 
 
 class UdpEndpoint:
@@ -178,6 +191,7 @@ class UdpEndpoint:
         except OSError as err:
             self._sock.close()
             raise UdpError(f"UdpEndpoint: cannot bind {bind_host}:{bind_port}: {err}") from err
+        self._ancillary_bytes = _ask_for_drop_counts(self._sock)
         self._closed = False
         logger.debug("UDP endpoint bound to %s:%d", *self.local_address)
 
@@ -274,7 +288,9 @@ class UdpEndpoint:
         received: list[tuple[bytes, Address]] = []
         for _ in range(max_datagrams):
             try:
-                data, sender = self._sock.recvfrom(_MAX_DATAGRAM_BYTES)
+                data, ancillary, _flags, sender = self._sock.recvmsg(
+                    _MAX_DATAGRAM_BYTES, self._ancillary_bytes
+                )
             except (BlockingIOError, InterruptedError):
                 break
             except OSError as err:
@@ -283,6 +299,9 @@ class UdpEndpoint:
                 self.stats.recv_errors += 1
                 self._log_error("receive on", self.local_address, err)
                 continue
+            for level, kind, value in ancillary:
+                if level == socket.SOL_SOCKET and kind == _SO_RXQ_OVFL:
+                    self.stats.kernel_drops = _DROP_COUNT.unpack_from(value)[0]
             address: Address = (str(sender[0]), int(sender[1]))
             received.append((data, address))
             if self.learns_peer:
@@ -333,6 +352,16 @@ class UdpEndpoint:
         level = logging.DEBUG if code in self._errnos_logged else logging.WARNING
         self._errnos_logged.add(code)
         logger.log(level, "UDP %s %s:%d failed (counted, continuing): %s", action, *address, err)
+
+
+def _ask_for_drop_counts(sock: socket.socket) -> int:
+    """Turn on ``SO_RXQ_OVFL`` where the system has it; the ancillary buffer size ``recvmsg``
+    then needs (0 where it does not)."""
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, _SO_RXQ_OVFL, 1)
+    except OSError:
+        return 0
+    return socket.CMSG_SPACE(_DROP_COUNT.size)
 
 
 def _is_transient(err: OSError) -> bool:

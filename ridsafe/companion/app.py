@@ -83,14 +83,14 @@ class CompanionFleet:
         self.t_s = now_s
         return self._collect(lambda c: c.handle(now_s, per[c.spec.sysid]))
 
-    def count_foreign(self, name: str, reason: str) -> None:
-        """A datagram the runner dropped on ``name`` (``common.runner``), counted by the
-        companion whose endpoint it is."""
+    def count_foreign(self, name: str, reason: str, count: int = 1) -> None:
+        """``count`` datagrams the runner dropped on ``name`` (``common.runner``), counted by
+        the companion whose endpoint it is."""
         target = self._route(name)
         if target is None:
-            self.unknown_endpoint += 1
+            self.unknown_endpoint += count
             return
-        self.companions[target[0]].shell.count_foreign(target[1], reason)
+        self.companions[target[0]].shell.count_foreign(target[1], reason, count)
 
     def finish(self, now_s: float) -> Datagrams:
         return self._collect(lambda c: c.finish(max(now_s, c.t_s)))

@@ -7,6 +7,7 @@ companion socket, and spray at the sim's port from another socket."""
 from __future__ import annotations
 
 import random
+import sys
 import time
 from collections.abc import Callable
 
@@ -186,3 +187,45 @@ def test_a_udpout_endpoint_takes_datagrams_from_its_remote_only() -> None:
         stranger.close()
     assert core.got and set(core.got) == {b"from the remote"}
     assert runner.stats.foreign_dropped >= 15
+
+
+class _Counting(_Echo):
+    """Records what the runner says it dropped before the core."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.foreign: dict[str, int] = {}
+
+    def count_foreign(self, name: str, reason: str, count: int = 1) -> None:
+        self.foreign[f"{name}.{reason}"] = self.foreign.get(f"{name}.{reason}", 0) + count
+
+
+@pytest.mark.udp
+@pytest.mark.skipif(sys.platform != "linux", reason="SO_RXQ_OVFL is Linux's")
+def test_datagrams_the_kernel_dropped_reach_the_cores_counters() -> None:
+    """A flood into a small receive buffer before the runner reads: what the core got plus
+    what it was told the kernel dropped is everything sent (loopback loses nothing else)."""
+    port = UdpEndpoint(recv_buffer_bytes=4096)
+    sender = UdpEndpoint(remote=port.local_address)
+    for i in range(400):
+        sender.send(i.to_bytes(4, "big") * 64)
+    clock_s = [0.0]
+
+    def tick(now_s: float) -> None:
+        if now_s < 0.5:
+            sender.send(b"after the flood")  # the drop count comes with a later datagram
+        time.sleep(0.002)
+        clock_s[0] = (round(now_s / TICK_S) + 1) * TICK_S + 1e-6
+
+    core = _Counting()
+    runner = UdpRunner(core, {"gcs": port}, MonotonicClock(1.0, lambda: clock_s[0]), TICK_S)
+    try:
+        runner.run(1.0, tick)
+    finally:
+        runner.close()
+        sender.close()
+    sent = 400 + sum(1 for data in core.got if data == b"after the flood")
+    dropped = core.foreign.get("gcs.kernel_overflow", 0)
+    assert dropped > 0
+    assert len(core.got) + dropped == sent
+    assert runner.stats.kernel_dropped == dropped

@@ -63,6 +63,7 @@ DROPS = {  # the counters of what an app dropped or refused (links, shell, runne
     *("bad_data", "truncated", "unknown_id", "invalid_value", "rejected_signature"),
     *("unknown_endpoint", "foreign_system", "other_component", "bad_sysid"),
     *("not_from_locked_peer", "not_from_remote"),
+    "kernel_overflow",  # lost in a full receive buffer (a loaded machine): counted too
 }
 # The spray starts once the sim reports every aircraft airborne (the companions have locked
 # their ports). Earlier, a sprayer that sends MAVLink with a companion's ids before the
