@@ -30,6 +30,7 @@ from ridsafe.common import topics
 from ridsafe.common.ellipsoid import mahalanobis2
 from ridsafe.tools.analysis.adversary_metrics import adversaries_of, first_alert_s
 from ridsafe.tools.analysis.encounters import airborne, entry_event_samples
+from ridsafe.tools.analysis.metrics import DEFAULT_MIN_HEIGHT_M
 from ridsafe.tools.analysis.run_arrays import RunLog
 from ridsafe.tools.runlog.reader import read_records
 
@@ -137,7 +138,7 @@ def _horizontal_m(p_enu_m: FloatArray, other: object) -> float | None:
     return float(np.hypot(p_enu_m[0] - float(other[0]), p_enu_m[1] - float(other[1])))
 
 
-def spoofer_nmacs(run: RunLog, min_height_m: float = 1.0) -> list[SpooferNmac]:
+def spoofer_nmacs(run: RunLog, min_height_m: float = DEFAULT_MIN_HEIGHT_M) -> list[SpooferNmac]:
     """Every benign-spoofer NMAC event of ``run``, in time order (``min_height_m``: airborne
     height, as the metrics use)."""
     truth = run.truth
