@@ -162,6 +162,26 @@ class _Echo:
         return []
 
 
+def _run_for_a_second(
+    core: _Echo, name: str, endpoint: UdpEndpoint, each_tick: Callable[[float], None]
+) -> UdpRunner:
+    """Run ``core`` on ``endpoint`` (as ``name``) for 1 s of ticks, ``each_tick(now_s)`` after
+    every tick, on a clock that steps one tick per tick; the runner is closed and returned."""
+    clock_s = [0.0]
+
+    def tick(now_s: float) -> None:
+        each_tick(now_s)
+        time.sleep(0.002)
+        clock_s[0] = (round(now_s / TICK_S) + 1) * TICK_S + 1e-6
+
+    runner = UdpRunner(core, {name: endpoint}, MonotonicClock(1.0, lambda: clock_s[0]), TICK_S)
+    try:
+        runner.run(1.0, tick)
+    finally:
+        runner.close()
+    return runner
+
+
 @pytest.mark.udp
 def test_a_udpout_endpoint_takes_datagrams_from_its_remote_only() -> None:
     remote = UdpEndpoint()
@@ -169,20 +189,15 @@ def test_a_udpout_endpoint_takes_datagrams_from_its_remote_only() -> None:
     stranger = UdpEndpoint(remote=out.local_address)
     out.send(b"hello")  # so the remote knows where out is
     remote.recv_all()
-    clock_s = [0.0]
 
-    def tick(now_s: float) -> None:
+    def each_tick(_now_s: float) -> None:
         remote.send(b"from the remote", out.local_address)
         stranger.send(b"from a stranger")
-        time.sleep(0.002)
-        clock_s[0] = (round(now_s / TICK_S) + 1) * TICK_S + 1e-6
 
     core = _Echo()
-    runner = UdpRunner(core, {"autopilot": out}, MonotonicClock(1.0, lambda: clock_s[0]), TICK_S)
     try:
-        runner.run(1.0, tick)
+        runner = _run_for_a_second(core, "autopilot", out, each_tick)
     finally:
-        runner.close()
         remote.close()
         stranger.close()
     assert core.got and set(core.got) == {b"from the remote"}
@@ -209,23 +224,19 @@ def test_datagrams_the_kernel_dropped_reach_the_cores_counters() -> None:
     sender = UdpEndpoint(remote=port.local_address)
     for i in range(400):
         sender.send(i.to_bytes(4, "big") * 64)
-    clock_s = [0.0]
 
-    def tick(now_s: float) -> None:
-        if now_s < 0.5:
-            sender.send(b"after the flood")  # the drop count comes with a later datagram
-        time.sleep(0.002)
-        clock_s[0] = (round(now_s / TICK_S) + 1) * TICK_S + 1e-6
+    sent = [400]
+
+    def each_tick(now_s: float) -> None:  # the drop count comes with a later datagram
+        if now_s < 0.5:  # and the runner reads every one of them before it stops
+            sent[0] += sender.send(b"after the flood")
 
     core = _Counting()
-    runner = UdpRunner(core, {"gcs": port}, MonotonicClock(1.0, lambda: clock_s[0]), TICK_S)
     try:
-        runner.run(1.0, tick)
+        runner = _run_for_a_second(core, "gcs", port, each_tick)
     finally:
-        runner.close()
         sender.close()
-    sent = 400 + sum(1 for data in core.got if data == b"after the flood")
     dropped = core.foreign.get("gcs.kernel_overflow", 0)
     assert dropped > 0
-    assert len(core.got) + dropped == sent
+    assert len(core.got) + dropped == sent[0]
     assert runner.stats.kernel_dropped == dropped
