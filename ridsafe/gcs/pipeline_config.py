@@ -370,6 +370,13 @@ class TrackConfig:
     #: (m); 0 starts at once. Receivers clustered at depots can leave the spoofer anywhere
     #: along a curve; a region covering the whole area helps no planner.
     max_init_std_m: float = 150.0
+    #: RSSI_IMM: the spans (s) of claims the grid posterior of a track start may take, tried
+    #: shortest first at each newest claim; the first one tight enough starts the track
+    #: (``initiation/grid.py``). More than one lets a channel whose errors repeat from claim to
+    #: claim (three claims a second apart worth little more than one) wait for the geometry
+    #: to change instead of for a lucky window; each at most the claims kept
+    #: (``max(backfill_s, detection.window_s)``). (2.5,): the paper-era start.
+    init_spans_s: tuple[float, ...] = (2.5,)
     #: A single-hypothesis RSSI_IMM's altitude std: U(0, 120 m), the small-UAS legal band,
     #: moment-matched (120 / sqrt(12)).
     altitude_prior_std_m: float = 34.6
@@ -382,6 +389,11 @@ class TrackConfig:
     def __post_init__(self) -> None:
         check_non_negative("backfill_s", self.backfill_s)
         check_non_negative("max_init_std_m", self.max_init_std_m)
+        spans = self.init_spans_s
+        if not spans or any(not 0.0 < s < math.inf for s in spans) or list(spans) != sorted(spans):
+            raise FieldValueError(
+                "init_spans_s", f"expected one or more spans > 0 s, ascending, got {list(spans)}"
+            )
         check_non_negative("coast_max_radius_m", self.coast_max_radius_m)
         for name in (
             "silence_timeout_s",
@@ -552,6 +564,13 @@ class PipelineConfig:
                 "max_claims_per_cycle", f"expected >= 0, got {self.max_claims_per_cycle}"
             )
         check_positive("max_claim_wait_s", self.max_claim_wait_s)
+        kept_s = max(self.tracks.backfill_s, self.detection.window_s)
+        if self.tracks.init_spans_s[-1] > kept_s:
+            raise FieldValueError(
+                "tracks.init_spans_s",
+                f"the longest span {self.tracks.init_spans_s[-1]:g} s is more than the claims "
+                f"kept: max(tracks.backfill_s, detection.window_s) = {kept_s:g} s",
+            )
         if self.ghosts.enabled and self.rssi_filter.ground_z_enu_m is None:
             raise FieldValueError(
                 "ghosts.enabled", "a transmitter on the ground needs rssi_filter.ground_z_enu_m"

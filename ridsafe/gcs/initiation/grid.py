@@ -43,7 +43,8 @@ FloatArray = NDArray[np.float64]
 
 __all__ = ["INIT_SPAN_S", "GridSeed", "grid_posterior", "init_windows", "spread_m"]
 
-#: Transmissions used by the grid lie within this span (s): the transmitter is held static.
+#: Transmissions used by the grid lie within this span (s) by default: the transmitter is held
+#: static (``TrackConfig.init_spans_s`` may offer longer ones).
 INIT_SPAN_S = 2.5
 #: Largest speed assumed while held static (m/s), for the motion blur of the grid estimate.
 MAX_SPEED_M_S = 8.0
@@ -72,17 +73,27 @@ class _Cells:
 
 
 def init_windows(
-    claims: Sequence[ObservedClaim], min_receivers: int, after_s: float = -np.inf
+    claims: Sequence[ObservedClaim],
+    min_receivers: int,
+    after_s: float = -np.inf,
+    spans_s: Sequence[float] = (INIT_SPAN_S,),
 ) -> list[list[ObservedClaim]]:
     """Candidate groups of transmissions for the grid, oldest first: each usable transmission
-    (>= ``min_receivers``) heard after ``after_s`` with the usable ones up to ``INIT_SPAN_S``
-    before it."""
+    (>= ``min_receivers``) heard after ``after_s`` with the usable ones up to each of
+    ``spans_s`` before it, shortest span first (a longer span that adds no claim is left
+    out)."""
     usable = [claim for claim in claims if claim.n_receivers >= min_receivers]
-    return [
-        [u for u in usable if last.t_s - INIT_SPAN_S <= u.t_s <= last.t_s]
-        for last in usable
-        if last.t_s > after_s
-    ]
+    windows: list[list[ObservedClaim]] = []
+    for last in usable:
+        if last.t_s <= after_s:
+            continue
+        previous = 0
+        for span_s in spans_s:
+            window = [u for u in usable if last.t_s - span_s <= u.t_s <= last.t_s]
+            if len(window) > previous:
+                windows.append(window)
+                previous = len(window)
+    return windows
 
 
 def _axes(rx: FloatArray, cell_m: float, margin_m: float) -> tuple[FloatArray, FloatArray]:

@@ -1,15 +1,23 @@
 """The track-start grid posterior: it finds a transmitter heard by spread receivers, stays
-wide when the receivers are clustered, and its windows skip what was tried."""
+wide when the receivers are clustered, its windows skip what was tried, and longer spans are
+offered when the shortest leaves the posterior too broad."""
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 
 import numpy as np
 import pytest
 
+from ridsafe.common.errors import FieldValueError
+from ridsafe.common.pathloss import received_power_dbm
 from ridsafe.gcs.initiation.grid import grid_posterior, init_windows, spread_m
+from ridsafe.gcs.localisation.gaussian_sum import start
+from ridsafe.gcs.pipeline_api import ObservedClaim
+from ridsafe.gcs.pipeline_config import PipelineConfig, TrackConfig
 from tests.gcs.claims import noisy_claim as _claim
+from tests.gcs.claims import observed_claim
 
 
 def test_grid_posterior_finds_the_transmitter() -> None:
@@ -59,3 +67,61 @@ def test_a_small_noise_std_drops_the_modes_whose_mass_underflows() -> None:
     assert sum(s.weight for s in seeds) == pytest.approx(1.0)
     assert np.linalg.norm(max(seeds, key=lambda s: s.weight).p_xy_m - p[:2]) < 20.0
     assert np.isfinite(spread_m(seeds)) and spread_m(seeds) < 20.0
+
+
+def test_longer_spans_are_offered_after_the_shorter_at_each_newest_claim() -> None:
+    rng = np.random.default_rng(4)
+    rx = rng.uniform(-500, 500, (6, 3))
+    claims = [_claim(float(t), np.zeros(3), rx, rng) for t in range(10)]
+    windows = init_windows(claims, 4, spans_s=(2.5, 5.0, 8.0))
+    sizes = [(w[-1].t_s, len(w)) for w in windows]
+    # newest claim t: claims within [t - span, t]; a span that adds no claim is not repeated
+    assert sizes[:8] == [(0, 1), (1, 2), (2, 3), (3, 3), (3, 4), (4, 3), (4, 5), (5, 3)]
+    assert sizes[-3:] == [(9, 3), (9, 6), (9, 9)]
+    assert init_windows(claims, 4) == init_windows(claims, 4, spans_s=(2.5,))
+
+
+def _moving_receivers_with_errors_that_repeat(seed: int) -> list[ObservedClaim]:
+    """A still 20 dBm transmitter heard once a second for 9 s by six aircraft flying apart at
+    8 m/s, the RSSI errors (6 dB) drawn anew only every 4 s: three claims in a row are worth
+    about one, but the geometry changes over the nine."""
+    rng = np.random.default_rng(seed)
+    start = np.column_stack((rng.uniform(-300, 300, (6, 2)), rng.uniform(30, 90, 6)))
+    heading = rng.uniform(0, 2 * np.pi, 6)
+    velocity = 8.0 * np.column_stack((np.cos(heading), np.sin(heading), np.zeros(6)))
+    p = np.array([100.0, -50.0, 60.0])
+    claims, error = [], np.zeros(6)
+    for t in range(9):
+        if t % 4 == 0:
+            error = rng.normal(0.0, 6.0, 6)
+        rx = start + velocity * t
+        rssi = received_power_dbm(20.0, np.linalg.norm(rx - p, axis=1)) + error
+        claims.append(observed_claim("S", float(t), p, rx, rssi))
+    return claims
+
+
+def test_a_track_starts_from_a_longer_span_when_the_shortest_is_too_broad() -> None:
+    """Oracle: the grid posterior of the last three claims is wider than the start's 150 m,
+    that of all nine is not (computed here); for the window ending at the last claim (the
+    earlier ones tried before), with only the 2.5 s span no track starts, with an 8 s one
+    offered it starts on all nine claims."""
+    claims = _moving_receivers_with_errors_that_repeat(0)
+    alts = (20.0, 60.0, 100.0)
+    assert spread_m(grid_posterior(claims[-3:], alts, 6.0)) > 150.0
+    assert spread_m(grid_posterior(claims, alts, 6.0)) < 150.0
+    base = PipelineConfig(rssi_sigma_db=6.0)
+    assert start(claims, base, after_s=7.5) is None
+    longer = dataclasses.replace(
+        base, tracks=dataclasses.replace(base.tracks, init_spans_s=(2.5, 8.0))
+    )
+    started = start(claims, longer, after_s=7.5)
+    assert started is not None and started[1] == len(claims)
+
+
+@pytest.mark.parametrize(
+    ("spans", "message"),
+    [((), "one or more"), ((5.0, 2.5), "ascending"), ((0.0,), "> 0"), ((2.5, 12.0), "kept")],
+)
+def test_bad_start_spans_are_refused_naming_the_key(spans: tuple[float, ...], message: str) -> None:
+    with pytest.raises(FieldValueError, match=f"init_spans_s.*{message}"):
+        PipelineConfig(tracks=TrackConfig(init_spans_s=spans))
