@@ -29,6 +29,7 @@ from ridsafe.tools.analysis.sweep_results import (
     PLANNER_LABELS,
     ROWS,
     Cell,
+    Progress,
     ReportError,
     Row,
     Stat,
@@ -250,9 +251,14 @@ def write_report(
     recompute: bool = False,
     with_plots: bool = True,
     fig3_density: int = 16,
+    workers: int = 1,
+    progress: Progress | None = None,
 ) -> ReportFiles:
-    """Read the sweeps, write report.md, report.csv and the plots into ``out``."""
-    sweeps = [load_sweep(path, recompute) for path in sweep_dirs]
+    """Read the sweeps, write report.md, report.csv and the plots into ``out``; metrics read
+    from the logs are computed on ``workers`` processes (``progress``: ``load_sweep``'s)."""
+    sweeps = [
+        load_sweep(path, recompute, workers=workers, progress=progress) for path in sweep_dirs
+    ]
     if len({s.label for s in sweeps}) != len(sweeps):  # one config twice: add the folder
         sweeps = [dataclasses.replace(s, label=f"{s.path.name}/{s.label}") for s in sweeps]
     if not any(s.records for s in sweeps):

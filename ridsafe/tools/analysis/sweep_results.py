@@ -4,7 +4,8 @@ Shared by the report (``analysis.report``: tables) and the plots (``analysis.plo
 
 Each completed run's metrics are its ``result.json`` cache of
 :func:`ridsafe.tools.sweep.folder.run_metrics` (the log's metrics), recomputed from
-``run.mcap`` when the cache does not match the log's size or with ``recompute=True``. A
+``run.mcap`` when the cache does not match the log's size or this version's metric keys, or
+with ``recompute=True`` (on every core, the cache then rewritten with them). A
 result whose run digest differs from what the folder's ``scenario.yaml`` (the config of its
 latest sweep) gives for its spec is stale: skipped.
 
@@ -18,10 +19,11 @@ detection delay's distribution); such a cell has no std and no published value.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import json
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
@@ -34,13 +36,14 @@ from ridsafe.tools.analysis.metrics import METRIC_KEYS
 from ridsafe.tools.analysis.published import PUBLISHED, PUBLISHED_RUNS
 from ridsafe.tools.run.scenario import ScenarioFile
 from ridsafe.tools.sweep.config import ParamValue, format_value
+from ridsafe.tools.sweep.engines import metrics_of_logs
 from ridsafe.tools.sweep.folder import (
     LOG_FILE,
     MANIFEST_FILE,
     RESULT_FILE,
     SCENARIO_FILE,
     RunStatus,
-    run_metrics,
+    refresh_metrics,
 )
 from ridsafe.tools.sweep.plan import RunSpec, safe_run_digest
 
@@ -64,6 +67,8 @@ __all__ = [
 ]
 
 Metrics = Mapping[str, float | int | None]
+#: ``progress(done, total)``: how many of the runs whose metrics come from their logs are done.
+Progress = Callable[[int, int], None]
 
 PLANNER_LABELS: Mapping[str, str] = {"aware": "SA (aware)", "trust-rid": "Trust-RID"}
 _PLANNER_ORDER = ("aware", "trust-rid")
@@ -198,8 +203,17 @@ class SweepResults:
         return list(seen.items())
 
 
-def load_sweep(path: Path, recompute: bool = False, label: str | None = None) -> SweepResults:
-    """Read a sweep folder (see the module docstring for where metrics come from)."""
+def load_sweep(
+    path: Path,
+    recompute: bool = False,
+    label: str | None = None,
+    *,
+    workers: int = 1,
+    progress: Progress | None = None,
+) -> SweepResults:
+    """Read a sweep folder (see the module docstring for where metrics come from). Metrics
+    computed from the logs are computed on ``workers`` processes, ``progress(done, total)``
+    told after each, and written back to each run's result.json cache."""
     try:
         manifest = json.loads((path / MANIFEST_FILE).read_text(encoding="utf-8"))
     except (OSError, ValueError) as err:
@@ -207,7 +221,8 @@ def load_sweep(path: Path, recompute: bool = False, label: str | None = None) ->
     base = _base(path)
     records: list[RunRecord] = []
     problems: list[tuple[str, str, str]] = []
-    stale = from_logs = 0
+    stale = 0
+    stale_cache: list[int] = []  # records whose metrics come from their log
     for result_path in sorted(path.rglob(RESULT_FILE)):
         run_dir = result_path.parent
         name = str(run_dir.relative_to(path))
@@ -221,9 +236,15 @@ def load_sweep(path: Path, recompute: bool = False, label: str | None = None) ->
         elif not (run_dir / LOG_FILE).exists():
             problems.append((name, status, f"but its {LOG_FILE} is missing"))
         else:
-            metrics, fresh = _metrics(run_dir, result, recompute)
-            from_logs += fresh
-            records.append(RunRecord(run_dir, spec, metrics))
+            cached = None if recompute else _cached_metrics(run_dir, result)
+            records.append(RunRecord(run_dir, spec, cached or {}))
+            if cached is None:
+                stale_cache.append(len(records) - 1)
+    logs = [records[k].run_dir / LOG_FILE for k in stale_cache]
+    for k, metrics in zip(stale_cache, metrics_of_logs(logs, workers, progress), strict=True):
+        records[k] = dataclasses.replace(records[k], metrics=metrics)
+        refresh_metrics(records[k].run_dir, metrics)
+    from_logs = len(stale_cache)
     config = str(manifest.get("config"))
     return SweepResults(
         path,
@@ -251,19 +272,19 @@ def _base(path: Path) -> ScenarioFile:
     return from_mapping(ScenarioFile, parse_yaml(text, source), source)
 
 
-def _metrics(run_dir: Path, result: Mapping[str, object], recompute: bool) -> tuple[Metrics, bool]:
-    """(metrics, computed from the log now?): the cache when it matches the log."""
+def _cached_metrics(run_dir: Path, result: Mapping[str, object]) -> Metrics | None:
+    """The result's metrics cache while it matches the log (its size) and this version's
+    metrics (every key); None: compute them from the log."""
     log = run_dir / LOG_FILE
     cached = result.get("metrics")
     size = log.stat().st_size if log.exists() else None
     if (
-        not recompute
-        and isinstance(cached, dict)
+        isinstance(cached, dict)
         and all(key in cached for key in METRIC_KEYS)  # else a cache of an older version
         and size == result.get("log_size_bytes")
     ):
-        return cached, False
-    return run_metrics(log), True
+        return cached
+    return None
 
 
 # --------------------------------------------------------------------------------------------

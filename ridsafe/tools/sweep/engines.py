@@ -28,7 +28,7 @@ import socket
 import tempfile
 import time
 import traceback
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
@@ -37,10 +37,18 @@ from pathlib import Path
 from typing import Any
 
 from ridsafe.tools.run.scenario import ScenarioFile
-from ridsafe.tools.sweep.folder import LOG_FILE, RunOutcome, RunStatus, run_metrics
+from ridsafe.tools.sweep.folder import LOG_FILE, Metrics, RunOutcome, RunStatus, run_metrics
 from ridsafe.tools.sweep.plan import RunSpec, scenario_for
 
-__all__ = ["THREAD_ENV", "DaskEngine", "LocalPoolEngine", "default_workers", "execute", "failed"]
+__all__ = [
+    "THREAD_ENV",
+    "DaskEngine",
+    "LocalPoolEngine",
+    "default_workers",
+    "execute",
+    "failed",
+    "metrics_of_logs",
+]
 
 #: Set in every worker process: one thread each for numba's parallel layer, OpenMP and BLAS.
 THREAD_ENV: Mapping[str, str] = {
@@ -146,6 +154,32 @@ def _thread_env() -> Iterator[None]:
                 os.environ.pop(name, None)
             else:
                 os.environ[name] = value
+
+
+def metrics_of_logs(
+    logs: Sequence[Path],
+    workers: int = 1,
+    on_done: Callable[[int, int], None] | None = None,
+) -> list[Metrics]:
+    """:func:`~ridsafe.tools.sweep.folder.run_metrics` of each log, in the order given, on
+    ``workers`` spawned processes (in this one for one worker or one log); ``on_done(done,
+    total)`` after each. An error in any log is raised here."""
+    results: list[Metrics | None] = [None] * len(logs)
+    if workers <= 1 or len(logs) <= 1:
+        for k, log in enumerate(logs):
+            results[k] = run_metrics(log)
+            if on_done is not None:
+                on_done(k + 1, len(logs))
+    else:
+        with _thread_env():
+            pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"))
+        with pool:
+            futures = {pool.submit(run_metrics, log): k for k, log in enumerate(logs)}
+            for done, future in enumerate(as_completed(futures), start=1):
+                results[futures[future]] = future.result()
+                if on_done is not None:
+                    on_done(done, len(logs))
+    return [r for r in results if r is not None]
 
 
 _WORKER_BASE: ScenarioFile | None = None

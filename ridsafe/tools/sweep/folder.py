@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import enum
 import json
+import logging
 import os
 import time
 from dataclasses import dataclass, field
@@ -42,6 +43,7 @@ __all__ = [
     "prepare_folder",
     "read_result",
     "record_outcome",
+    "refresh_metrics",
     "run_metrics",
 ]
 
@@ -52,6 +54,8 @@ MANIFEST_FILE = "sweep.json"
 SCENARIO_FILE = "scenario.yaml"
 
 Metrics = dict[str, float | int | None]
+
+logger = logging.getLogger(__name__)
 
 
 class RunStatus(enum.Enum):
@@ -89,6 +93,24 @@ def read_result(run_dir: Path) -> dict[str, Any] | None:
     except (OSError, ValueError):
         return None
     return data if isinstance(data, dict) else None
+
+
+def refresh_metrics(run_dir: Path, metrics: Metrics) -> bool:
+    """Rewrite the metrics cache of a run's result.json (and the size of the log they come
+    from) after they were computed again; False, with a warning, when it cannot be (a folder
+    not ours to write: the caller goes on with the metrics it has)."""
+    result = read_result(run_dir)
+    log = run_dir / LOG_FILE
+    if result is None or not log.exists():
+        return False
+    result["metrics"] = metrics
+    result["log_size_bytes"] = log.stat().st_size
+    try:
+        _write_atomic(run_dir / RESULT_FILE, (json.dumps(result, indent=2) + "\n").encode())
+    except OSError as err:
+        logger.warning("%s: metrics cache not updated: %s", run_dir / RESULT_FILE, err)
+        return False
+    return True
 
 
 def is_finished(run_dir: Path, digest: str) -> bool:

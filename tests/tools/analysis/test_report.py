@@ -179,15 +179,39 @@ def test_the_cache_is_used_only_while_it_matches_the_log(sweep_dir: Path, tmp_pa
         return record.metrics["nmac_benign_benign"]
 
     assert cached_value(False) == truth + 100  # the cache is trusted while its log matches
-    assert cached_value(True) == truth  # --recompute reads the logs
+    assert cached_value(True) == truth  # --recompute reads the logs, and caches them again
+    assert json.loads(result_path.read_text())["metrics"]["nmac_benign_benign"] == truth
+    result = json.loads(result_path.read_text())
     result["log_size_bytes"] += 1  # the log is not the one the cache was computed from
     result_path.write_text(json.dumps(result))
-    assert cached_value(False) == truth
     assert load_sweep(copy).from_logs == 1
+    assert load_sweep(copy).from_logs == 0  # the cache was repaired
     result["run_digest"] = "0123456789abcdef"  # a result of another config: stale, skipped
     result_path.write_text(json.dumps(result))
     sweep = load_sweep(copy)
     assert (len(sweep.records), sweep.stale) == (7, 1)
+
+
+@pytest.mark.slow
+def test_caches_of_an_older_version_are_computed_again_on_every_worker_and_rewritten(
+    sweep_dir: Path, tmp_path: Path
+) -> None:
+    """A metric key missing from every cache (a sweep flown before the metric existed): all
+    eight runs come from their logs, on two processes, with progress, the same numbers as
+    the caches had; the caches are rewritten, so the next load reads none."""
+    copy = tmp_path / "sweep"
+    shutil.copytree(sweep_dir, copy)
+    before = {r.run_dir.relative_to(sweep_dir): r.metrics for r in load_sweep(sweep_dir).records}
+    for result_path in copy.rglob(RESULT_FILE):
+        result = json.loads(result_path.read_text())
+        del result["metrics"]["region_delay_s"]
+        result_path.write_text(json.dumps(result))
+    calls: list[tuple[int, int]] = []
+    sweep = load_sweep(copy, workers=2, progress=lambda done, total: calls.append((done, total)))
+    assert sweep.from_logs == 8 and calls[-1] == (8, 8) and len(calls) == 8
+    after = {r.run_dir.relative_to(copy): r.metrics for r in sweep.records}
+    assert after == before  # every metric is a function of the log alone
+    assert load_sweep(copy).from_logs == 0
 
 
 @pytest.mark.slow
