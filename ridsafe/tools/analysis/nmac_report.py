@@ -87,6 +87,7 @@ def _event_row(g: _Group, record: RunRecord, e: SpooferNmac) -> str:
         f"{format_number(e.from_pad_m, 0)} / {format_number(e.from_goal_m, 0)}",
         since,
         _REGION[e.in_region],
+        e.planner_status or "none",
     ]
     return "| " + " | ".join(row) + " |"
 
@@ -102,9 +103,10 @@ def nmac_section(sweeps: Sequence[SweepResults]) -> list[str]:
         "## Where the aware planner's benign-spoofer NMACs happen",
         "",
         "Each NMAC at its closest sample (`analysis/spoofer_nmacs.py`): the benign aircraft's "
-        "flight stage (its mission phase), whether the spoofer had been alerted, and whether "
+        "flight stage (its mission phase), whether the spoofer had been alerted, whether "
         "its true position was inside the last unsafe region the GCS had sent for it (no "
-        "region: none in the second before).",
+        "region: none in the second before), and the benign planner's status then "
+        "(`no_safe_action`: no action kept clear of every region).",
         "",
         f"| Variant | Aircraft | runs with one | NMACs | {stage_names} | before the alert | "
         "spoofer inside / outside / no region |",
@@ -112,8 +114,8 @@ def nmac_section(sweeps: Sequence[SweepResults]) -> list[str]:
         *(_summary_row(g) for g in groups),
         "",
         "| Variant | Aircraft | seed | t (s) | distance (m) | height (m) | stage (phase) | from "
-        "pad / goal (m) | since alert (s) | spoofer vs its region |",
-        "|" + "---|" * 10,
+        "pad / goal (m) | since alert (s) | spoofer vs its region | planner |",
+        "|" + "---|" * 11,
         *(_event_row(g, record, e) for g in groups for record, e in g.events),
     ]
     unread = [u for g in groups for u in g.unread]

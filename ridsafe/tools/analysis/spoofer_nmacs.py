@@ -12,13 +12,17 @@ sample:
 - ``alert_lag_s``: time since the spoofer's first raised alert (negative: the NMAC came before
   the alert; None: never alerted);
 - ``in_region``: whether the spoofer's true position lay inside the last unsafe region the GCS
-  had sent for it no more than :data:`REGION_STALE_S` before (None: no such region).
+  had sent for it no more than :data:`REGION_STALE_S` before (None: no such region);
+- ``planner_status``: the status of the benign's last planner decision then
+  (``/companion/decisions``: ``cruise``, ``avoiding``, ``no_safe_action`` when no action kept
+  clear of every region, ``arrived``, ``stuck``; None: no decision yet).
 
 ``ridsafe report`` lists them for the aware planner's runs (``analysis.adversary_report``).
 """
 
 from __future__ import annotations
 
+import bisect
 import enum
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -86,6 +90,7 @@ class SpooferNmac:
     from_goal_m: float | None
     alert_lag_s: float | None
     in_region: bool | None
+    planner_status: str | None = None
 
 
 def _spoofers(run: RunLog) -> list[tuple[int, str]]:
@@ -100,20 +105,35 @@ def _spoofers(run: RunLog) -> list[tuple[int, str]]:
     return [(run.spoofer_sysid, str(run.spoofer_serial))]
 
 
-def _phases(run: RunLog) -> dict[int, list[tuple[float, str]]]:
-    """sysid -> [(time, phase entered)] from the companions' ``phase`` events, in time order."""
-    out: dict[int, list[tuple[float, str]]] = {}
-    if not run.path.exists():
-        return out
-    for _topic, t_s, record in read_records(run.path, topics=(topics.COMPANION_EVENTS,)):
-        if record.get("event") == "phase" and record.get("to") is not None:
-            out.setdefault(int(record.get("sysid", 0)), []).append((t_s, str(record["to"])))
-    return {sysid: sorted(items) for sysid, items in out.items()}
+_History = dict[int, list[tuple[float, str]]]
 
 
-def _phase_at(phases: list[tuple[float, str]], t_s: float) -> str | None:
-    before = [phase for t, phase in phases if t <= t_s]
-    return before[-1] if before else None
+def _histories(run: RunLog, sysids: set[int]) -> tuple[_History, _History]:
+    """(phases, planner statuses) of the aircraft ``sysids``: sysid -> [(time, value)] from
+    the companions' ``phase`` events and planner decisions, in time order."""
+    phases: _History = {}
+    statuses: _History = {}
+    if not run.path.exists() or not sysids:
+        return phases, statuses
+    wanted = (topics.COMPANION_EVENTS, topics.DECISIONS)
+    for topic, t_s, record in read_records(run.path, topics=wanted):
+        sysid = int(record.get("sysid", 0))
+        if sysid not in sysids:
+            continue
+        if topic == topics.DECISIONS and record.get("status") is not None:
+            statuses.setdefault(sysid, []).append((t_s, str(record["status"])))
+        elif record.get("event") == "phase" and record.get("to") is not None:
+            phases.setdefault(sysid, []).append((t_s, str(record["to"])))
+    return (
+        {k: sorted(v) for k, v in phases.items()},
+        {k: sorted(v) for k, v in statuses.items()},
+    )
+
+
+def _at(history: list[tuple[float, str]], t_s: float) -> str | None:
+    """The last value of ``history`` at or before ``t_s``."""
+    k = bisect.bisect_right(history, t_s, key=lambda item: item[0])
+    return history[k - 1][1] if k else None
 
 
 def _in_region(run: RunLog, serial: str, t_s: float, truth_enu_m: FloatArray) -> bool | None:
@@ -146,7 +166,8 @@ def spoofer_nmacs(run: RunLog, min_height_m: float = DEFAULT_MIN_HEIGHT_M) -> li
         return []
     flying = airborne(truth.p_enu_m, truth.armed, min_height_m)
     aircraft = {int(a["sysid"]): a for a in run.meta.get("aircraft") or [] if "sysid" in a}
-    phases = _phases(run)
+    # (benign sysid, its column, spoofer serial, its column, closest sample, alert time)
+    found: list[tuple[int, int, str, int, int, float | None]] = []
     events: list[SpooferNmac] = []
     for spoofer_sysid, serial in _spoofers(run):
         s = truth.column(spoofer_sysid)
@@ -163,22 +184,26 @@ def spoofer_nmacs(run: RunLog, min_height_m: float = DEFAULT_MIN_HEIGHT_M) -> li
                 separated = d >= run.nmac_threshold_m
             for samples in entry_event_samples(inside, separated):
                 k = int(samples[np.argmin(d[samples])])
-                t_s, p = float(truth.t_s[k]), truth.p_enu_m[k, b]
-                phase = _phase_at(phases.get(sysid, []), t_s)
-                meta = aircraft.get(sysid, {})
-                events.append(
-                    SpooferNmac(
-                        t_s=t_s,
-                        benign_sysid=sysid,
-                        spoofer_serial=serial,
-                        distance_m=float(d[k]),
-                        height_m=float(p[2]),
-                        phase=phase,
-                        stage=stage_of(phase),
-                        from_pad_m=_horizontal_m(p, meta.get("start_enu_m")),
-                        from_goal_m=_horizontal_m(p, meta.get("goal_enu_m")),
-                        alert_lag_s=None if alert_s is None else t_s - alert_s,
-                        in_region=_in_region(run, serial, t_s, truth.p_enu_m[k, s]),
-                    )
-                )
+                found.append((sysid, b, serial, s, k, alert_s))
+    phases, statuses = _histories(run, {sysid for sysid, *_ in found})
+    for sysid, b, serial, s, k, alert_s in found:
+        t_s, p = float(truth.t_s[k]), truth.p_enu_m[k, b]
+        phase = _at(phases.get(sysid, []), t_s)
+        meta = aircraft.get(sysid, {})
+        events.append(
+            SpooferNmac(
+                t_s=t_s,
+                benign_sysid=sysid,
+                spoofer_serial=serial,
+                distance_m=float(np.linalg.norm(p - truth.p_enu_m[k, s])),
+                height_m=float(p[2]),
+                phase=phase,
+                stage=stage_of(phase),
+                from_pad_m=_horizontal_m(p, meta.get("start_enu_m")),
+                from_goal_m=_horizontal_m(p, meta.get("goal_enu_m")),
+                alert_lag_s=None if alert_s is None else t_s - alert_s,
+                in_region=_in_region(run, serial, t_s, truth.p_enu_m[k, s]),
+                planner_status=_at(statuses.get(sysid, []), t_s),
+            )
+        )
     return sorted(events, key=lambda e: (e.t_s, e.benign_sysid, e.spoofer_serial))

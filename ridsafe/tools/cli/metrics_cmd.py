@@ -92,7 +92,8 @@ def format_nmacs(events: Sequence[SpooferNmac]) -> str:
         lines.append(
             f"  t {e.t_s:6.1f} s  aircraft {e.benign_sysid} - {e.spoofer_serial}  "
             f"{e.distance_m:.1f} m  height {e.height_m:.1f} m  {e.stage.value} "
-            f"({e.phase or 'no phase'})  {since}  spoofer {region[e.in_region]}"
+            f"({e.phase or 'no phase'})  {since}  spoofer {region[e.in_region]}  "
+            f"planner {e.planner_status or 'none'}"
         )
     return "\n".join(lines)
 

@@ -36,6 +36,10 @@ def phase(t_s: float, sysid: int, to: str) -> tuple[str, float, dict[str, Any]]:
     return (topics.COMPANION_EVENTS, t_s, record)
 
 
+def decision(t_s: float, sysid: int, status: str) -> tuple[str, float, dict[str, Any]]:
+    return (topics.DECISIONS, t_s, {"sysid": sysid, "status": status, "compute_ms": 1.0})
+
+
 def _pass_run(tmp_path: Path, extra: list[Any], offset_y: float = 40.0) -> Path:
     """PASSER (start (-300, 0, 60), 10 m/s east, goal (500, 0, 0)) meets the spoofer flying
     the other way ``offset_y`` to its north at t = 30 s, at x = 0."""
@@ -45,6 +49,8 @@ def _pass_run(tmp_path: Path, extra: list[Any], offset_y: float = 40.0) -> Path:
 
 def test_a_pass_in_cruise_after_the_alert_inside_the_region(tmp_path: Path) -> None:
     extra = [phase(5.0, 1, "climb"), phase(12.0, 1, "cruise"), phase(50.0, 1, "descend")]
+    extra += [decision(29.5, 1, "no_safe_action"), decision(30.5, 1, "cruise")]
+    extra += [decision(29.9, 2, "arrived")]  # another aircraft's: not this one's status
     extra.append(alert(20.0))
     # The spoofer is at (0, 40, 60) at t = 30 s; a region centred there, sent at 29.75 s.
     extra.append(region(29.75, (0.0, 40.0, 60.0), 100.0 * np.eye(3)))
@@ -60,6 +66,7 @@ def test_a_pass_in_cruise_after_the_alert_inside_the_region(tmp_path: Path) -> N
     assert event.from_goal_m == pytest.approx(500.0)
     assert event.alert_lag_s == pytest.approx(10.0)
     assert event.in_region is True
+    assert event.planner_status == "no_safe_action"
     assert (event.benign_sysid, event.spoofer_serial) == (1, SPOOFER_SERIAL)
 
 
@@ -71,6 +78,7 @@ def test_before_the_alert_outside_a_region_or_with_none(tmp_path: Path) -> None:
     assert event.in_region is False
     assert event.alert_lag_s == pytest.approx(-3.5)
     assert (event.phase, event.stage) == (None, Stage.UNKNOWN)
+    assert event.planner_status is None  # no decision logged
     stale = [region(28.5, (0.0, 40.0, 60.0), 100.0 * np.eye(3))]
     event = spoofer_nmacs(load_run(_pass_run(tmp_path / "b", stale)))[0]
     assert event.in_region is None
@@ -128,7 +136,7 @@ def test_the_report_lists_the_aware_planners_nmacs_from_the_logs(tmp_path: Path)
     # 2 of 3 aware runs had one (1 read); cruise 1; after the alert; no region
     assert f"| {label} | 16 | 2 / 3 | 1 | 0 | 1 | 0 | 0 | 0 | 0 / 0 / 1 |" in lines
     event = f"| {label} | 16 | 3 | 30.0 | 40.0 | 60.0 | cruise (cruise) | 300 / 500 | +10.0 | "
-    event += "no region |"
+    event += "no region | none |"
     assert event in lines
     text = "\n".join(lines)
     assert f"Logs not read: {label} 16 seed 4" in text
@@ -145,7 +153,7 @@ def test_ridsafe_metrics_lists_the_nmacs(
     assert code == 0
     assert "benign-spoofer NMACs: 1" in out
     assert "aircraft 1 - RSAF800000666  40.0 m  height 60.0 m  cruise (cruise)" in out
-    assert "+10.0 s from alert  spoofer no region" in out
+    assert "+10.0 s from alert  spoofer no region  planner none" in out
     code, out, _err = _cli([str(path), "--json", "--nmacs"], capsys)
     event = json.loads(out)["spoofer_nmac_events"][0]
     assert (event["stage"], event["distance_m"], event["in_region"]) == ("cruise", 40.0, None)
