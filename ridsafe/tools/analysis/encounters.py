@@ -29,6 +29,7 @@ __all__ = [
     "count_entry_events",
     "entry_event_samples",
     "pair_entry_events",
+    "pair_masks",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -84,9 +85,19 @@ def pair_entry_events(
     total = 0
     for start in range(0, i.size, _PAIR_BLOCK):
         ii, jj = i[start : start + _PAIR_BLOCK], j[start : start + _PAIR_BLOCK]
-        d = np.linalg.norm(p[:, ii] - p[:, jj], axis=-1)
-        with np.errstate(invalid="ignore"):
-            inside = (d < threshold_m) & flying[:, ii] & flying[:, jj]
-            separated = d >= threshold_m
+        _d, inside, separated = pair_masks(p, flying, ii, jj, threshold_m)
         total += int(count_entry_events(inside, separated).sum())
     return total
+
+
+def pair_masks(
+    p: FloatArray, flying: BoolArray, i: IntArray, j: IntArray, threshold_m: float
+) -> tuple[FloatArray, BoolArray, BoolArray]:
+    """For the pairs (i[k], j[k]) of columns of ``p`` (T, N, 3): their 3D distance (T, K),
+    inside (closer than ``threshold_m`` with both ``flying``) and separated (T, K): the masks
+    :func:`count_entry_events` and :func:`entry_event_samples` take."""
+    d = np.linalg.norm(p[:, i] - p[:, j], axis=-1)
+    with np.errstate(invalid="ignore"):
+        inside = (d < threshold_m) & flying[:, i] & flying[:, j]
+        separated = d >= threshold_m
+    return d, inside, separated

@@ -66,7 +66,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ridsafe.common.ellipsoid import mahalanobis2
-from ridsafe.tools.analysis.adversary_metrics import adversary_metrics
+from ridsafe.tools.analysis.adversary_metrics import adversary_metrics, first_alert_s
 from ridsafe.tools.analysis.encounters import airborne, count_entry_events, pair_entry_events
 from ridsafe.tools.analysis.paper_metrics import PAPER_METRIC_KEYS, paper_metrics
 from ridsafe.tools.analysis.run_arrays import Regions, RunLog, Truth, benign_serials, load_run
@@ -137,12 +137,7 @@ def _columns(truth: Truth, sysids: Sequence[int]) -> IntArray:
 
 
 def alert_time_s(run: RunLog) -> float | None:
-    if run.spoofer_serial is None:
-        return None
-    for t_s, alert in run.alerts:
-        if str(alert.get("uas_id")) == run.spoofer_serial and alert.get("state") == "raised":
-            return t_s
-    return None
+    return None if run.spoofer_serial is None else first_alert_s(run, run.spoofer_serial)
 
 
 def detection_delay_s(run: RunLog) -> float | None:
@@ -153,12 +148,12 @@ def detection_delay_s(run: RunLog) -> float | None:
 
 
 def region_delay_s(run: RunLog) -> float | None:
-    regions = _spoofer_regions_after_alert(run)
     alert = alert_time_s(run)
-    if regions is None or alert is None:
+    if alert is None:
         return None
-    if regions.t_s.size:
-        return float(regions.t_s.min()) - alert
+    after = run.regions.t_s[(run.regions.uas_id == run.spoofer_serial) & (run.regions.t_s >= alert)]
+    if after.size:
+        return float(after.min()) - alert
     return float(run.truth.t_s[-1]) - alert if run.truth.t_s.size else None
 
 

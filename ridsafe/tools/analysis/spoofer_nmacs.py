@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 from ridsafe.common import topics
 from ridsafe.common.ellipsoid import mahalanobis2
 from ridsafe.tools.analysis.adversary_metrics import adversaries_of, first_alert_s
-from ridsafe.tools.analysis.encounters import airborne, entry_event_samples
+from ridsafe.tools.analysis.encounters import airborne, entry_event_samples, pair_masks
 from ridsafe.tools.analysis.metrics import DEFAULT_MIN_HEIGHT_M
 from ridsafe.tools.analysis.run_arrays import RunLog
 from ridsafe.tools.runlog.reader import read_records
@@ -178,12 +178,12 @@ def spoofer_nmacs(run: RunLog, min_height_m: float = DEFAULT_MIN_HEIGHT_M) -> li
             b = truth.column(sysid)
             if b is None:
                 continue
-            d = np.linalg.norm(truth.p_enu_m[:, b] - truth.p_enu_m[:, s], axis=-1)
-            with np.errstate(invalid="ignore"):
-                inside = (d < run.nmac_threshold_m) & flying[:, b] & flying[:, s]
-                separated = d >= run.nmac_threshold_m
-            for samples in entry_event_samples(inside, separated):
-                k = int(samples[np.argmin(d[samples])])
+            pair_b, pair_s = np.array([b]), np.array([s])
+            d, inside, separated = pair_masks(
+                truth.p_enu_m, flying, pair_b, pair_s, run.nmac_threshold_m
+            )
+            for samples in entry_event_samples(inside[:, 0], separated[:, 0]):
+                k = int(samples[np.argmin(d[samples, 0])])
                 found.append((sysid, b, serial, s, k, alert_s))
     phases, statuses = _histories(run, {sysid for sysid, *_ in found})
     for sysid, b, serial, s, k, alert_s in found:
