@@ -12,8 +12,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from ridsafe.tools.analysis.flight_histories import Stage
 from ridsafe.tools.analysis.run_arrays import load_run
-from ridsafe.tools.analysis.spoofer_nmacs import SpooferNmac, Stage, spoofer_nmacs
+from ridsafe.tools.analysis.spoofer_nmacs import SpooferNmac, spoofer_nmacs
 from ridsafe.tools.analysis.sweep_results import RunRecord, SweepResults, format_number
 from ridsafe.tools.runlog.reader import LogReadError
 from ridsafe.tools.sweep.folder import LOG_FILE

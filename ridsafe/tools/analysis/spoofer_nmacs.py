@@ -22,57 +22,24 @@ sample:
 
 from __future__ import annotations
 
-import bisect
-import enum
-from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ridsafe.common import topics
 from ridsafe.common.ellipsoid import mahalanobis2
 from ridsafe.tools.analysis.adversary_metrics import adversaries_of, first_alert_s
 from ridsafe.tools.analysis.encounters import airborne, entry_event_samples, pair_masks
+from ridsafe.tools.analysis.flight_histories import Stage, flight_histories, stage_of, value_at
 from ridsafe.tools.analysis.metrics import DEFAULT_MIN_HEIGHT_M
 from ridsafe.tools.analysis.run_arrays import RunLog
-from ridsafe.tools.runlog.reader import read_records
 
-__all__ = ["REGION_STALE_S", "SpooferNmac", "Stage", "spoofer_nmacs", "stage_of"]
+__all__ = ["REGION_STALE_S", "SpooferNmac", "spoofer_nmacs"]
 
 FloatArray = NDArray[np.float64]
 
 #: A region older than this at the NMAC (s) says nothing about it (the GCS sends every 0.25 s).
 REGION_STALE_S = 1.0
-
-
-class Stage(enum.Enum):
-    """The part of a delivery flight a mission phase belongs to (``companion/mission.Phase``)."""
-
-    TAKE_OFF = "take-off and climb"
-    CRUISE = "cruise"
-    ARRIVAL = "arrival and landing"
-    UNKNOWN = "unknown"
-
-
-_STAGES: Mapping[str, Stage] = {
-    "wait_departure": Stage.TAKE_OFF,
-    "set_guided": Stage.TAKE_OFF,
-    "arm": Stage.TAKE_OFF,
-    "takeoff": Stage.TAKE_OFF,
-    "climb": Stage.TAKE_OFF,
-    "cruise": Stage.CRUISE,
-    "arrived": Stage.ARRIVAL,
-    "descend": Stage.ARRIVAL,
-    "hover": Stage.ARRIVAL,
-    "land": Stage.ARRIVAL,
-    "done": Stage.ARRIVAL,
-}
-
-
-def stage_of(phase: str | None) -> Stage:
-    """The :class:`Stage` of a mission phase's value (``Stage.UNKNOWN`` for none or another)."""
-    return _STAGES.get(phase or "", Stage.UNKNOWN)
 
 
 @dataclass(frozen=True)
@@ -103,37 +70,6 @@ def _spoofers(run: RunLog) -> list[tuple[int, str]]:
     if listed or run.spoofer_sysid is None:
         return listed
     return [(run.spoofer_sysid, str(run.spoofer_serial))]
-
-
-_History = dict[int, list[tuple[float, str]]]
-
-
-def _histories(run: RunLog, sysids: set[int]) -> tuple[_History, _History]:
-    """(phases, planner statuses) of the aircraft ``sysids``: sysid -> [(time, value)] from
-    the companions' ``phase`` events and planner decisions, in time order."""
-    phases: _History = {}
-    statuses: _History = {}
-    if not run.path.exists() or not sysids:
-        return phases, statuses
-    wanted = (topics.COMPANION_EVENTS, topics.DECISIONS)
-    for topic, t_s, record in read_records(run.path, topics=wanted):
-        sysid = int(record.get("sysid", 0))
-        if sysid not in sysids:
-            continue
-        if topic == topics.DECISIONS and record.get("status") is not None:
-            statuses.setdefault(sysid, []).append((t_s, str(record["status"])))
-        elif record.get("event") == "phase" and record.get("to") is not None:
-            phases.setdefault(sysid, []).append((t_s, str(record["to"])))
-    return (
-        {k: sorted(v) for k, v in phases.items()},
-        {k: sorted(v) for k, v in statuses.items()},
-    )
-
-
-def _at(history: list[tuple[float, str]], t_s: float) -> str | None:
-    """The last value of ``history`` at or before ``t_s``."""
-    k = bisect.bisect_right(history, t_s, key=lambda item: item[0])
-    return history[k - 1][1] if k else None
 
 
 def _in_region(run: RunLog, serial: str, t_s: float, truth_enu_m: FloatArray) -> bool | None:
@@ -185,10 +121,10 @@ def spoofer_nmacs(run: RunLog, min_height_m: float = DEFAULT_MIN_HEIGHT_M) -> li
             for samples in entry_event_samples(inside[:, 0], separated[:, 0]):
                 k = int(samples[np.argmin(d[samples, 0])])
                 found.append((sysid, b, serial, s, k, alert_s))
-    phases, statuses = _histories(run, {sysid for sysid, *_ in found})
+    phases, statuses = flight_histories(run, {sysid for sysid, *_ in found})
     for sysid, b, serial, s, k, alert_s in found:
         t_s, p = float(truth.t_s[k]), truth.p_enu_m[k, b]
-        phase = _at(phases.get(sysid, []), t_s)
+        phase = value_at(phases.get(sysid, []), t_s)
         meta = aircraft.get(sysid, {})
         events.append(
             SpooferNmac(
@@ -203,7 +139,7 @@ def spoofer_nmacs(run: RunLog, min_height_m: float = DEFAULT_MIN_HEIGHT_M) -> li
                 from_goal_m=_horizontal_m(p, meta.get("goal_enu_m")),
                 alert_lag_s=None if alert_s is None else t_s - alert_s,
                 in_region=_in_region(run, serial, t_s, truth.p_enu_m[k, s]),
-                planner_status=_at(statuses.get(sysid, []), t_s),
+                planner_status=value_at(statuses.get(sysid, []), t_s),
             )
         )
     return sorted(events, key=lambda e: (e.t_s, e.benign_sysid, e.spoofer_serial))

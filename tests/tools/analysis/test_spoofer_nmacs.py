@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 
 from ridsafe.common import topics
+from ridsafe.tools.analysis.flight_histories import Stage, stage_of
 from ridsafe.tools.analysis.metrics import compute_metrics
 from ridsafe.tools.analysis.nmac_report import nmac_section
 from ridsafe.tools.analysis.run_arrays import load_run
-from ridsafe.tools.analysis.spoofer_nmacs import Stage, spoofer_nmacs, stage_of
+from ridsafe.tools.analysis.spoofer_nmacs import spoofer_nmacs
 from ridsafe.tools.analysis.sweep_results import RunRecord, SweepResults
 from ridsafe.tools.sweep.folder import LOG_FILE
 from ridsafe.tools.sweep.plan import RunSpec as SweepRunSpec
