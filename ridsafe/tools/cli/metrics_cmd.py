@@ -5,7 +5,11 @@ apply); ``--json`` prints the dict of ``ridsafe.tools.analysis.metrics.compute_m
 where it does not apply). ``--nmacs`` adds every benign-spoofer NMAC, one line each (in JSON:
 ``spoofer_nmac_events``, a list of objects): when, how close, at what height, in which stage of
 the benign aircraft's flight, how long after the spoofer's alert, and whether the spoofer was
-inside its unsafe region (``ridsafe.tools.analysis.spoofer_nmacs``). A file that cannot be read
+inside its unsafe region (``ridsafe.tools.analysis.spoofer_nmacs``). ``--deliveries`` adds what
+became of every aircraft that did not deliver, one line each (in JSON: ``deliveries``, every
+aircraft): late, held near its goal (and by which aircraft, in which stage of its flight),
+stalled en route or not launched, with its trip, progress and time flown low
+(``ridsafe.tools.analysis.deliveries``). A file that cannot be read
 as a run log: message on stderr, exit 1. Definitions: the docstring of
 ``ridsafe.tools.analysis.metrics``.
 """
@@ -20,9 +24,18 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from ridsafe.common.errors import RidsafeError
+from ridsafe.tools.analysis.deliveries import (
+    NEAR_GOAL_M,
+    Delivery,
+    Outcome,
+    deliveries,
+    outcome_counts,
+)
 from ridsafe.tools.analysis.metrics import METRIC_KEYS, compute_metrics
 from ridsafe.tools.analysis.run_arrays import load_run
 from ridsafe.tools.analysis.spoofer_nmacs import SpooferNmac, spoofer_nmacs
+
+NEAR_GOAL_TEXT = f"{NEAR_GOAL_M:.0f} m"
 
 # metric -> (label, unit, format)
 _DISPLAY: dict[str, tuple[str, str, str]] = {
@@ -69,6 +82,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument(
         "--nmacs", action="store_true", help="also list every benign-spoofer NMAC, one a line"
     )
+    parser.add_argument(
+        "--deliveries",
+        action="store_true",
+        help="also list what became of every aircraft that did not deliver, one a line",
+    )
     parser.set_defaults(func=run)
 
 
@@ -98,8 +116,41 @@ def format_nmacs(events: Sequence[SpooferNmac]) -> str:
     return "\n".join(lines)
 
 
+def _optional(value: float | None, fmt: str, unit: str = "") -> str:
+    return "n/a" if value is None else f"{value:{fmt}}{unit}"
+
+
+def format_deliveries(rows: Sequence[Delivery]) -> str:
+    """A count per outcome, then one line per aircraft that did not deliver (``--deliveries``)."""
+    counts = outcome_counts(rows)
+    summary = ", ".join(f"{n} {outcome.value}" for outcome, n in counts.items() if n)
+    lines = [f"deliveries of {len(rows)} aircraft: {summary or 'none'}"]
+    for row in rows:
+        if row.outcome is Outcome.DELIVERED:
+            continue
+        held = ""
+        if row.holder_sysid is not None:
+            stage = row.holder_stage.value if row.holder_stage is not None else "unknown"
+            held = f"  nearest at its goal: aircraft {row.holder_sysid} ({stage})"
+        lines.append(
+            f"  aircraft {row.sysid}: {row.outcome.value}  trip {row.trip_m:.0f} m  "
+            f"took off {_optional(row.took_off_s, '.1f', ' s')}  "
+            f"progress {_optional(row.progress_m_s, '.1f', ' m/s')}  "
+            f"low {_optional(row.low_fraction, '.0%')}  "
+            f"{_optional(row.end_from_goal_m, '.0f', ' m')} from its goal at the end "
+            f"(closest {_optional(row.closest_m, '.0f', ' m')}, within "
+            f"{NEAR_GOAL_TEXT} from {_optional(row.near_goal_s, '.1f', ' s')}){held}"
+        )
+    return "\n".join(lines)
+
+
 def _as_json(event: SpooferNmac) -> dict[str, Any]:
     return {**dataclasses.asdict(event), "stage": event.stage.value}
+
+
+def _delivery_json(row: Delivery) -> dict[str, Any]:
+    stage = None if row.holder_stage is None else row.holder_stage.value
+    return {**dataclasses.asdict(row), "outcome": row.outcome.value, "holder_stage": stage}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -107,6 +158,7 @@ def run(args: argparse.Namespace) -> int:
         run_log = load_run(args.log)
         metrics = compute_metrics(run_log)
         events = spoofer_nmacs(run_log) if args.nmacs else []
+        rows = deliveries(run_log) if args.deliveries else []
     except (RidsafeError, OSError) as exc:
         print(f"ridsafe metrics: {exc}", file=sys.stderr)
         return 1
@@ -114,8 +166,17 @@ def run(args: argparse.Namespace) -> int:
         print(f"ridsafe metrics: {args.log}: malformed run log: {exc!r}", file=sys.stderr)
         return 1
     if args.json:
-        extra = {"spoofer_nmac_events": [_as_json(e) for e in events]} if args.nmacs else {}
+        extra: dict[str, Any] = {}
+        if args.nmacs:
+            extra["spoofer_nmac_events"] = [_as_json(e) for e in events]
+        if args.deliveries:
+            extra["deliveries"] = [_delivery_json(row) for row in rows]
         print(json.dumps({**metrics, **extra}, indent=2))
     else:
-        print(format_table(metrics) + ("\n" + format_nmacs(events) if args.nmacs else ""))
+        parts = [format_table(metrics)]
+        if args.nmacs:
+            parts.append(format_nmacs(events))
+        if args.deliveries:
+            parts.append(format_deliveries(rows))
+        print("\n".join(parts))
     return 0

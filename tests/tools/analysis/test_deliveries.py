@@ -1,0 +1,98 @@
+"""What became of each aircraft's delivery (``analysis.deliveries``) and ``ridsafe metrics
+--deliveries``: a hand-built run log written with the real recorder, one aircraft per outcome,
+every field worked out by hand."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from ridsafe.tools.analysis.deliveries import Outcome, deliveries, outcome_counts
+from ridsafe.tools.analysis.flight_histories import Stage
+from ridsafe.tools.analysis.metrics import compute_metrics
+from ridsafe.tools.analysis.run_arrays import load_run
+from tests.tools.analysis.test_metrics import RunSpec, _cli, line, still, write_run
+from tests.tools.analysis.test_spoofer_nmacs import phase
+
+
+def _held(t: float) -> tuple[float, float, float]:
+    """Flies east at 10 m/s and stops 40 m short of its goal (300, 200) at t = 26 s."""
+    return (min(10.0 * t, 260.0), 200.0, 60.0)
+
+
+def _run(tmp_path: Path) -> Path:
+    aircraft = [
+        line((0.0, 0.0, 60.0), (10.0, 0.0, 0.0)),  # 1: delivers at 29 s (10 m short of 300)
+        line((0.0, 100.0, 30.0), (5.0, 0.0, 0.0)),  # 2: low and slow, 100 m short at the end
+        _held,  # 3: held 40 m from its goal from 26 s on
+        line((300.0, 260.0, 20.0), (0.0, -1.0, 0.0)),  # 4: descends on a site 10 m from 3's
+        still((0.0, -300.0, 60.0)),  # 5: hovers where it took off
+        still((0.0, 400.0, 0.0)),  # 6: never leaves the ground
+    ]
+    goals = [
+        (300.0, 0.0, 0.0),
+        (600.0, 100.0, 0.0),
+        (300.0, 200.0, 0.0),
+        (300.0, 210.0, 0.0),
+        (400.0, -300.0, 0.0),
+        (0.0, 700.0, 0.0),
+    ]
+    extra = [phase(1.0, 4, "cruise"), phase(5.0, 4, "descend"), phase(90.0, 4, "land")]
+    spec = RunSpec(aircraft, goals=goals, duration_s=100.0, extra=extra)
+    return write_run(tmp_path / "run.mcap", spec)
+
+
+def test_one_aircraft_of_each_outcome_worked_out_by_hand(tmp_path: Path) -> None:
+    path = _run(tmp_path)
+    rows = {row.sysid: row for row in deliveries(load_run(path))}
+    assert [rows[s].outcome for s in sorted(rows)] == [
+        Outcome.DELIVERED,
+        Outcome.LATE,
+        Outcome.HELD_NEAR_GOAL,
+        Outcome.DELIVERED,
+        Outcome.STALLED,
+        Outcome.NOT_LAUNCHED,
+    ]
+    delivered = rows[1]
+    assert delivered.arrived_s == pytest.approx(29.0)
+    assert delivered.trip_m == pytest.approx(300.0)
+    assert delivered.flight_s == pytest.approx(29.0)
+    assert delivered.progress_m_s == pytest.approx(300.0 / 29.0)
+    assert delivered.low_fraction == 0.0
+    late = rows[2]
+    assert late.end_from_goal_m == pytest.approx(100.0)
+    assert late.progress_m_s == pytest.approx(500.0 / 100.0)  # 600 m trip, 100 m left
+    assert late.low_fraction == 1.0  # 30 m, its cruise altitude 60 m
+    assert late.near_goal_s is None
+    held = rows[3]
+    assert held.near_goal_s == pytest.approx(25.0)  # 50 m short at 25 s
+    assert (held.end_from_goal_m, held.closest_m) == pytest.approx((40.0, 40.0))
+    assert (held.holder_sysid, held.holder_stage) == (4, Stage.ARRIVAL)
+    assert rows[5].progress_m_s == pytest.approx(0.0)
+    assert rows[6].took_off_s is None
+    assert rows[6].trip_m == pytest.approx(300.0)
+    counts = outcome_counts(list(rows.values()))
+    assert counts[Outcome.DELIVERED] == 2
+    assert sum(counts.values()) == 6
+    assert compute_metrics(path)["goal_reached_fraction"] == pytest.approx(2 / 6)
+
+
+def test_ridsafe_metrics_lists_what_became_of_the_undelivered(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = str(_run(tmp_path))
+    code, out, _err = _cli([path, "--deliveries"], capsys)
+    assert code == 0
+    assert (
+        "deliveries of 6 aircraft: 2 delivered, 1 not launched, 1 held near the goal, 1 late, "
+        "1 stalled en route" in out
+    )
+    lines = [ln.strip() for ln in out.splitlines() if ln.strip().startswith("aircraft ")]
+    assert [ln.split(":")[0] for ln in lines] == [f"aircraft {s}" for s in (2, 3, 5, 6)]
+    assert "nearest at its goal: aircraft 4 (arrival and landing)" in lines[1]
+    code, out, _err = _cli([path, "--deliveries", "--json"], capsys)
+    rows = json.loads(out)["deliveries"]
+    assert [r["outcome"] for r in rows][:3] == ["delivered", "late", "held near the goal"]
+    assert rows[2]["holder_stage"] == "arrival and landing"
