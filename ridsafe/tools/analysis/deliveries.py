@@ -12,6 +12,9 @@ drop in deliveries can be traced to its kind before anything is tuned. Per aircr
   left at the end);
 - ``low_fraction``: the part of that flight spent more than :data:`LOW_MARGIN_M` below its
   cruise altitude (the climb from the pad included);
+- ``landed_s``: for an aircraft that arrived, its first sample on the ground (or disarmed)
+  after that: the delivery done and the airspace above the site free again (None: still in
+  the air at the end);
 - ``end_from_goal_m``, ``closest_m``: horizontal distance to its goal at the end, and the least;
   ``near_goal_s``: when it first came within :data:`NEAR_GOAL_M` of its goal (None: never);
 - ``holder_sysid`` / ``holder_stage``: for an aircraft held near its goal, the other aircraft
@@ -86,6 +89,7 @@ class Delivery:
     trip_m: float
     took_off_s: float | None = None
     arrived_s: float | None = None
+    landed_s: float | None = None
     flight_s: float | None = None
     progress_m_s: float | None = None
     low_fraction: float | None = None
@@ -159,6 +163,8 @@ def deliveries(run: RunLog, min_height_m: float = DEFAULT_MIN_HEIGHT_M) -> list[
         if cruise is not None and heights.size:
             low = float(np.mean(heights < float(cruise) - LOW_MARGIN_M))
         covered = trip - (0.0 if arrived is not None else float(from_goal[-1]))
+        down = np.flatnonzero(~flying[last:, column]) if arrived is not None else np.array([])
+        landed = float(truth.t_s[last + int(down[0])]) if down.size else None
         near = np.flatnonzero(from_goal <= NEAR_GOAL_M)
         near_s = float(truth.t_s[near[0]]) if near.size else None
         outcome = Outcome.DELIVERED
@@ -177,6 +183,7 @@ def deliveries(run: RunLog, min_height_m: float = DEFAULT_MIN_HEIGHT_M) -> list[
                 trip_m=trip,
                 took_off_s=took_off,
                 arrived_s=arrived,
+                landed_s=landed,
                 flight_s=flight,
                 progress_m_s=covered / flight if flight > 0.0 else None,
                 low_fraction=low,

@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import statistics
 import sys
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -125,6 +126,19 @@ def format_deliveries(rows: Sequence[Delivery]) -> str:
     counts = outcome_counts(rows)
     summary = ", ".join(f"{n} {outcome.value}" for outcome, n in counts.items() if n)
     lines = [f"deliveries of {len(rows)} aircraft: {summary or 'none'}"]
+    arrived = [row for row in rows if row.arrived_s is not None]
+    landing_s = [
+        r.landed_s - r.arrived_s
+        for r in arrived
+        if r.landed_s is not None and r.arrived_s is not None
+    ]
+    if arrived:
+        median = (
+            f", median {statistics.median(landing_s):.1f} s after arriving" if landing_s else ""
+        )
+        lines.append(
+            f"  landed within the run: {len(landing_s)} of the {len(arrived)} that arrived{median}"
+        )
     for row in rows:
         if row.outcome is Outcome.DELIVERED:
             continue

@@ -22,12 +22,18 @@ def _held(t: float) -> tuple[float, float, float]:
     return (min(10.0 * t, 260.0), 200.0, 60.0)
 
 
+def _lands(t: float) -> tuple[float, float, float]:
+    """Slides south at 1 m/s from (300, 260) at 20 m (within 10 m of its goal (300, 210) from
+    40 s on) and touches down at 95 s."""
+    return (300.0, 260.0 - t, 0.0 if t >= 95.0 else 20.0)
+
+
 def _run(tmp_path: Path) -> Path:
     aircraft = [
         line((0.0, 0.0, 60.0), (10.0, 0.0, 0.0)),  # 1: delivers at 29 s (10 m short of 300)
         line((0.0, 100.0, 30.0), (5.0, 0.0, 0.0)),  # 2: low and slow, 100 m short at the end
         _held,  # 3: held 40 m from its goal from 26 s on
-        line((300.0, 260.0, 20.0), (0.0, -1.0, 0.0)),  # 4: descends on a site 10 m from 3's
+        _lands,  # 4: descends on a site 10 m from 3's, on the ground at 95 s
         still((0.0, -300.0, 60.0)),  # 5: hovers where it took off
         still((0.0, 400.0, 0.0)),  # 6: never leaves the ground
     ]
@@ -61,6 +67,7 @@ def test_one_aircraft_of_each_outcome_worked_out_by_hand(tmp_path: Path) -> None
     assert delivered.flight_s == pytest.approx(29.0)
     assert delivered.progress_m_s == pytest.approx(300.0 / 29.0)
     assert delivered.low_fraction == 0.0
+    assert delivered.landed_s is None  # still in the air at the end
     late = rows[2]
     assert late.end_from_goal_m == pytest.approx(100.0)
     assert late.progress_m_s == pytest.approx(500.0 / 100.0)  # 600 m trip, 100 m left
@@ -70,6 +77,8 @@ def test_one_aircraft_of_each_outcome_worked_out_by_hand(tmp_path: Path) -> None
     assert held.near_goal_s == pytest.approx(25.0)  # 50 m short at 25 s
     assert (held.end_from_goal_m, held.closest_m) == pytest.approx((40.0, 40.0))
     assert (held.holder_sysid, held.holder_stage) == (4, Stage.ARRIVAL)
+    assert rows[4].arrived_s == pytest.approx(40.0)
+    assert rows[4].landed_s == pytest.approx(95.0)
     assert rows[5].progress_m_s == pytest.approx(0.0)
     assert rows[6].took_off_s is None
     assert rows[6].trip_m == pytest.approx(300.0)
@@ -89,6 +98,7 @@ def test_ridsafe_metrics_lists_what_became_of_the_undelivered(
         "deliveries of 6 aircraft: 2 delivered, 1 not launched, 1 held near the goal, 1 late, "
         "1 stalled en route" in out
     )
+    assert "landed within the run: 1 of the 2 that arrived, median 55.0 s after arriving" in out
     lines = [ln.strip() for ln in out.splitlines() if ln.strip().startswith("aircraft ")]
     assert [ln.split(":")[0] for ln in lines] == [f"aircraft {s}" for s in (2, 3, 5, 6)]
     assert "nearest at its goal: aircraft 4 (arrival and landing)" in lines[1]
