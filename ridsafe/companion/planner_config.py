@@ -83,6 +83,12 @@ class PlannerConfig:
     benign_reward_per_s: float = -100.0  # t: rollout seconds already spent within d_safe (ours)
     benign_decay: float = 0.97
     d_safe_m: float = 100.0  # ours: gating radius of the benign term, 2 x NMAC radius
+    # ours: the benign term's distance is |(dn, de, w dd)|; 1 = the paper's Euclidean. With
+    # w > 1 an aircraft w x dh above or below counts as that far away, so traffic in altitude
+    # layers (family.cruise_alt_by_heading) passes over other layers without a conflict; the
+    # reported separation (and the approach check) stays Euclidean. It weakens the term's
+    # vertical reach: layers must stay more than the NMAC radius apart.
+    benign_vertical_weight: float = 1.0
     region_reward: float = -1000.0
     region_decay: float = 0.97
     region_gate_m: float = 75.0  # ours: the region term vanishes this far from its surface
@@ -140,6 +146,10 @@ class PlannerConfig:
         check_positive_fields(
             self, "goal_reward", "goal_gate_m", "goal_vertical_weight", "d_safe_m", "region_gate_m"
         )
+        if not self.benign_vertical_weight >= 1.0:  # the neighbour culling assumes >= 1
+            raise FieldValueError(
+                "benign_vertical_weight", f"must be >= 1, got {self.benign_vertical_weight}"
+            )
         check_positive_fields(
             self, "arrival_radius_m", "approach_radius_m", "stuck_after_s", "stuck_progress_m"
         )

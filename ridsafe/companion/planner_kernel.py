@@ -104,6 +104,7 @@ class KernelParams(NamedTuple):
     benign_rate: float
     benign_scale: float  # 1 / (1 - gamma^2)
     benign_ln_decay: float
+    benign_vertical_weight2: float
     d_safe: float
     sample_dt: float
     region_coef: float
@@ -128,6 +129,7 @@ class KernelParams(NamedTuple):
             cfg.benign_reward_per_s,
             1.0 / (1.0 - cfg.benign_decay**2),
             math.log(cfg.benign_decay),
+            cfg.benign_vertical_weight**2,
             cfg.d_safe_m,
             cfg.horizon_s / cfg.n_samples,
             source_coefficient(cfg.region_reward, cfg.region_decay),
@@ -365,8 +367,8 @@ def _hazard_at(
     best, d2 = -np.inf, np.inf
     for i in range(n_near[k]):
         ex, ey, ez = x - near[k, i, 1], y - near[k, i, 2], z - near[k, i, 3]
-        e2 = ex * ex + ey * ey + ez * ez
-        d2 = min(d2, e2)
+        d2 = min(d2, ex * ex + ey * ey + ez * ez)
+        e2 = ex * ex + ey * ey + kp.benign_vertical_weight2 * ez * ez  # the benign term's
         if e2 < d_safe2:
             j = int(near[k, i, 0])
             best = max(best, ln_reward[conflicts[j]] + math.sqrt(e2) * kp.benign_ln_decay)

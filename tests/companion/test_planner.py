@@ -348,3 +348,17 @@ def test_non_finite_hazards_are_dropped() -> None:
     )
     decision = AwarePlanner().plan(_inp(neighbours=(bad_rid,), regions=(bad_region,)))
     assert decision.status is PlannerStatus.CRUISE and np.all(np.isfinite(decision.target_p_ned_m))
+
+
+def test_traffic_a_layer_above_is_no_conflict_with_a_vertical_weight() -> None:
+    """A neighbour hovering 55 m overhead: within d_safe (100 m) of a hover at cruise, so a
+    conflict for the paper's Euclidean term; with the benign term's vertical weight 2 it counts
+    as 110 m away, no conflict, while the separation stays the true 55 m."""
+    above = Neighbour("ABOVE", (0.0, 0.0, -115.0), (0.0, 0.0, 0.0), 10.0, False)
+    inp = _inp(neighbours=(above,))
+    hover = -1
+    _, euclidean = _scores_for(inp, PlannerConfig())
+    _, layered = _scores_for(inp, PlannerConfig(benign_vertical_weight=2.0))
+    assert euclidean.hazard[hover] < 0.0
+    assert layered.hazard[hover] == 0.0
+    assert layered.min_separation_m[hover] == pytest.approx(55.0)

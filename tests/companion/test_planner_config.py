@@ -43,6 +43,8 @@ def test_n_actions_is_the_action_set_size() -> None:
         ("region_reward", 1000.0, "hazard reward must be < 0"),
         ("benign_reward_per_s", 100.0, "longer conflicts cost more"),
         ("d_safe_m", -5.0, "must be finite and > 0"),
+        ("benign_vertical_weight", 0.5, "must be >= 1"),
+        ("benign_vertical_weight", float("nan"), "must be >= 1"),
         ("speeds_m_s", (9.0,), "max_speed_m_s"),
         ("flight_path_angles_deg", (), "must not be empty"),
         ("accel_m_s2", 6.0, "g tan(max_tilt_deg)"),

@@ -82,11 +82,14 @@ def _reference(
     min_sep = np.full(len(actions), np.inf)
     for n in neighbours:
         q = np.asarray(n.p_ned_m) + np.asarray(n.v_ned_m_s) * (now - n.t_s + tau)[:, None]
-        d = np.linalg.norm(path - q, axis=-1)  # (A, K)
-        inside = d < cfg.d_safe_m
+        e = path - q
+        d = np.linalg.norm(e, axis=-1)  # (A, K): the separation
+        e[..., 2] *= cfg.benign_vertical_weight  # the benign term's distance
+        d_w = np.linalg.norm(e, axis=-1)
+        inside = d_w < cfg.d_safe_m
         conflict_s = dt * (np.cumsum(inside, axis=1) - inside)
         reward = benign_reward(cfg.benign_reward_base, cfg.benign_reward_per_s, conflict_s)
-        hazard = np.minimum(hazard, source_value(reward, cfg.benign_decay, cfg.d_safe_m, d))
+        hazard = np.minimum(hazard, source_value(reward, cfg.benign_decay, cfg.d_safe_m, d_w))
         min_sep = np.minimum(min_sep, d.min(axis=1))
     intrusion = np.zeros(len(actions))
     for r in regions:
@@ -152,9 +155,11 @@ def _extension_reference(
 
 
 @pytest.mark.parametrize("seed", range(4))
-@pytest.mark.parametrize("mean_weight", [0.0, 0.7])
-def test_kernel_matches_the_numpy_reference(seed: int, mean_weight: float) -> None:
-    cfg = PlannerConfig(hazard_mean_weight=mean_weight)
+@pytest.mark.parametrize(("mean_weight", "vertical_weight"), [(0.0, 1.0), (0.7, 1.0), (0.0, 2.5)])
+def test_kernel_matches_the_numpy_reference(
+    seed: int, mean_weight: float, vertical_weight: float
+) -> None:
+    cfg = PlannerConfig(hazard_mean_weight=mean_weight, benign_vertical_weight=vertical_weight)
     now, p0, v0, goal, neighbours, regions = _random_case(seed)
     actions = build_action_set(cfg, heading_to_rad(p0, goal))
     scene = build_scene(now, p0, neighbours, regions, cfg)

@@ -81,6 +81,13 @@ class FamilyConfig:
     # the run's duration is not used, so --duration never changes the draw).
     delivery_deadline_s: float = 100.0
     cruise_alts_m: tuple[float, ...] = (50.0, 60.0, 70.0)
+    # False: each aircraft's cruise altitude drawn from cruise_alts_m. True: by the heading of
+    # its trip, cruise_alts_m[k] for the k-th of len(cruise_alts_m) equal sectors (from east,
+    # counter-clockwise), as layered-airspace concepts do (Sunil et al., "Metropolis: Relating
+    # Airspace Structure and Capacity for Extreme Traffic Densities", ATM Seminar 2015): within
+    # a layer aircraft fly roughly the same way, so head-on and crossing conflicts move to the
+    # climbs and descents. The draws are the same either way.
+    cruise_alt_by_heading: bool = False
     spoofer_speed_m_s: float = 7.0
     spoofer_alt_m: float = 60.0
     spoofer_offset_enu_m: Vec3 = (50.0, 50.0, 0.0)
@@ -238,6 +245,8 @@ def _aircraft(
     flying_s = family.delivery_deadline_s - launch.departure_s - family.nominal_takeoff_s
     goal = _delivery_site(u[:-1], depot, pad, flying_s * family.nominal_speed_m_s, family)
     alt = family.cruise_alts_m[int(u[-1] * len(family.cruise_alts_m))]
+    if family.cruise_alt_by_heading:
+        alt = family.cruise_alts_m[_heading_sector(goal - pad, len(family.cruise_alts_m))]
     return AircraftConfig(
         serial=cta2063_serial(SERIAL_MAKER, f"{k + 1:08d}"),
         start_enu_m=_vec(pad),
@@ -245,6 +254,13 @@ def _aircraft(
         cruise_alt_m=alt,
         departure_s=launch.departure_s,
     )
+
+
+def _heading_sector(trip_enu_m: np.ndarray, sectors: int) -> int:
+    """Which of ``sectors`` equal heading sectors (from east, counter-clockwise) a trip
+    lies in."""
+    angle = math.atan2(float(trip_enu_m[1]), float(trip_enu_m[0])) % (2.0 * math.pi)
+    return min(int(angle / (2.0 * math.pi) * sectors), sectors - 1)
 
 
 def _delivery_site(

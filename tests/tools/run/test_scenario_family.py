@@ -96,3 +96,22 @@ def test_paper_mode_flies_the_same_scenarios_as_paper() -> None:
     assert paper_mode.scenario.aircraft == paper.scenario.aircraft
     assert paper_mode.scenario.spoofer == paper.scenario.spoofer
     assert paper_mode.scenario.radio == paper.scenario.radio
+
+
+def test_cruise_altitude_by_heading_layers_the_traffic_and_keeps_the_draws() -> None:
+    """Two layers: trips heading into the eastern half-plane of bearings (0-180 deg from east,
+    counter-clockwise: northward) cruise at the first altitude, the others at the second;
+    pads, goals and departures are those of the random draw."""
+    layered = dataclasses.replace(FAMILY, cruise_alts_m=(30.0, 85.0), cruise_alt_by_heading=True)
+    for seed in range(5):
+        drawn = generate(BASE, 32, seed, dataclasses.replace(FAMILY, cruise_alts_m=(30.0, 85.0)))
+        by_heading = generate(BASE, 32, seed, layered)
+        for a, b in zip(drawn.aircraft, by_heading.aircraft, strict=True):
+            assert (a.start_enu_m, a.goal_enu_m, a.departure_s) == (
+                b.start_enu_m,
+                b.goal_enu_m,
+                b.departure_s,
+            )
+            north = b.goal_enu_m[1] - b.start_enu_m[1]
+            assert b.cruise_alt_m == (30.0 if north >= 0.0 else 85.0)
+        assert {a.cruise_alt_m for a in by_heading.aircraft} == {30.0, 85.0}
