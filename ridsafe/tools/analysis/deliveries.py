@@ -21,9 +21,10 @@ drop in deliveries can be traced to its kind before anything is tuned. Per aircr
   that was most often the closest airborne one to its goal while it was held there, and the
   stage of that aircraft's flight then (its mission phase; ``flight_histories.Stage``);
 - ``outcome`` (:class:`Outcome`): ``delivered``; ``not launched``; ``held near the goal``
-  (within :data:`NEAR_GOAL_M` of it for at least :data:`HELD_S` before the end, never within
-  the arrival radius); ``late`` (still closing on its goal at :data:`CLOSING_MIN_M_S` or more
-  over the last :data:`CLOSING_WINDOW_S`); ``stalled en route`` (neither).
+  (it came within :data:`NEAR_GOAL_M` of it at least :data:`HELD_S` before the end, and
+  never within the arrival radius); ``late`` (still closing on its goal at
+  :data:`CLOSING_MIN_M_S` or more over the last :data:`CLOSING_WINDOW_S`); ``stalled en
+  route`` (neither).
 
 ``ridsafe metrics RUN.mcap --deliveries`` lists them.
 """
@@ -33,8 +34,9 @@ from __future__ import annotations
 import collections
 import dataclasses
 import enum
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -130,69 +132,83 @@ def _holder(
 
 def deliveries(run: RunLog, min_height_m: float = DEFAULT_MIN_HEIGHT_M) -> list[Delivery]:
     """Every benign aircraft's :class:`Delivery`, by sysid (those without a goal left out)."""
-    truth = run.truth
-    if truth.t_s.size == 0:
+    if run.truth.t_s.size == 0:
         return []
-    flying = airborne(truth.p_enu_m, truth.armed, min_height_m)
+    flying = airborne(run.truth.p_enu_m, run.truth.armed, min_height_m)
     arrivals = arrival_times_s(run)
     meta = {int(a["sysid"]): a for a in run.meta.get("aircraft") or [] if "sysid" in a}
-    rows: list[Delivery] = []
-    held_at: dict[int, int] = {}  # sysid -> the sample from which it was held near its goal
-    for sysid in sorted(run.goals_enu_m):
-        goal = np.asarray(run.goals_enu_m[sysid], dtype=np.float64)
-        column = truth.column(sysid)
-        start = meta.get(sysid, {}).get("start_enu_m")
-        up = np.flatnonzero(flying[:, column]) if column is not None else np.array([], int)
-        if column is None or up.size == 0:
-            trip = float(np.hypot(*(np.asarray(start[:2]) - goal[:2]))) if start else np.nan
-            rows.append(Delivery(sysid, Outcome.NOT_LAUNCHED, trip))
-            continue
-        p = truth.p_enu_m[:, column]
-        first = int(up[0])
-        origin = np.asarray(start[:2], dtype=np.float64) if start else p[first, :2]
-        trip = float(np.hypot(*(origin - goal[:2])))
-        with np.errstate(invalid="ignore"):
-            from_goal = np.hypot(p[:, 0] - goal[0], p[:, 1] - goal[1])
-        arrived = arrivals.get(sysid)
-        last = int(np.searchsorted(truth.t_s, arrived)) if arrived is not None else len(truth.t_s)
-        took_off = float(truth.t_s[first])
-        flight = float(truth.t_s[min(last, len(truth.t_s) - 1)]) - took_off
-        cruise = meta.get(sysid, {}).get("cruise_alt_m")
-        heights = p[first:last, 2]
-        low = None
-        if cruise is not None and heights.size:
-            low = float(np.mean(heights < float(cruise) - LOW_MARGIN_M))
-        covered = trip - (0.0 if arrived is not None else float(from_goal[-1]))
-        down = np.flatnonzero(~flying[last:, column]) if arrived is not None else np.array([])
-        landed = float(truth.t_s[last + int(down[0])]) if down.size else None
-        near = np.flatnonzero(from_goal <= NEAR_GOAL_M)
-        near_s = float(truth.t_s[near[0]]) if near.size else None
-        outcome = Outcome.DELIVERED
-        if arrived is None:
-            if near_s is not None and truth.t_s[-1] - near_s >= HELD_S:
-                outcome = Outcome.HELD_NEAR_GOAL
-                held_at[sysid] = int(near[0])
-            elif _closing_m_s(truth.t_s, from_goal) >= CLOSING_MIN_M_S:
-                outcome = Outcome.LATE
-            else:
-                outcome = Outcome.STALLED
-        rows.append(
-            Delivery(
-                sysid=sysid,
-                outcome=outcome,
-                trip_m=trip,
-                took_off_s=took_off,
-                arrived_s=arrived,
-                landed_s=landed,
-                flight_s=flight,
-                progress_m_s=covered / flight if flight > 0.0 else None,
-                low_fraction=low,
-                end_from_goal_m=float(from_goal[-1]),
-                closest_m=float(np.nanmin(from_goal)),
-                near_goal_s=near_s,
-            )
-        )
+    rows = [
+        _delivery(run, sysid, meta.get(sysid, {}), arrivals.get(sysid), flying)
+        for sysid in sorted(run.goals_enu_m)
+    ]
+    held_at = {  # sysid -> the sample from which it was near its goal
+        row.sysid: int(np.searchsorted(run.truth.t_s, row.near_goal_s))
+        for row in rows
+        if row.outcome is Outcome.HELD_NEAR_GOAL and row.near_goal_s is not None
+    }
     return _with_holders(run, rows, held_at, flying)
+
+
+def _delivery(
+    run: RunLog,
+    sysid: int,
+    meta: Mapping[str, Any],
+    arrived: float | None,
+    flying: NDArray[np.bool_],
+) -> Delivery:
+    """One aircraft's row, without who held it."""
+    truth = run.truth
+    goal = np.asarray(run.goals_enu_m[sysid], dtype=np.float64)
+    column = truth.column(sysid)
+    start = meta.get("start_enu_m")
+    up = np.flatnonzero(flying[:, column]) if column is not None else np.array([], int)
+    if column is None or up.size == 0:
+        trip = float(np.hypot(*(np.asarray(start[:2]) - goal[:2]))) if start else np.nan
+        return Delivery(sysid, Outcome.NOT_LAUNCHED, trip)
+    p = truth.p_enu_m[:, column]
+    first = int(up[0])
+    origin = np.asarray(start[:2], dtype=np.float64) if start else p[first, :2]
+    trip = float(np.hypot(*(origin - goal[:2])))
+    with np.errstate(invalid="ignore"):
+        from_goal = np.hypot(p[:, 0] - goal[0], p[:, 1] - goal[1])
+    last = int(np.searchsorted(truth.t_s, arrived)) if arrived is not None else len(truth.t_s)
+    took_off = float(truth.t_s[first])
+    flight = float(truth.t_s[min(last, len(truth.t_s) - 1)]) - took_off
+    cruise, heights = meta.get("cruise_alt_m"), p[first:last, 2]
+    low = None
+    if cruise is not None and heights.size:
+        low = float(np.mean(heights < float(cruise) - LOW_MARGIN_M))
+    covered = trip - (0.0 if arrived is not None else float(from_goal[-1]))
+    down = np.flatnonzero(~flying[last:, column]) if arrived is not None else np.array([])
+    near = np.flatnonzero(from_goal <= NEAR_GOAL_M)
+    near_s = float(truth.t_s[near[0]]) if near.size else None
+    return Delivery(
+        sysid=sysid,
+        outcome=_outcome(truth.t_s, from_goal, arrived, near_s),
+        trip_m=trip,
+        took_off_s=took_off,
+        arrived_s=arrived,
+        landed_s=float(truth.t_s[last + int(down[0])]) if down.size else None,
+        flight_s=flight,
+        progress_m_s=covered / flight if flight > 0.0 else None,
+        low_fraction=low,
+        end_from_goal_m=float(from_goal[-1]),
+        closest_m=float(np.nanmin(from_goal)),
+        near_goal_s=near_s,
+    )
+
+
+def _outcome(
+    t_s: FloatArray, from_goal_m: FloatArray, arrived_s: float | None, near_s: float | None
+) -> Outcome:
+    """The outcome of a launched aircraft (definitions: the module docstring)."""
+    if arrived_s is not None:
+        return Outcome.DELIVERED
+    if near_s is not None and t_s[-1] - near_s >= HELD_S:
+        return Outcome.HELD_NEAR_GOAL
+    if _closing_m_s(t_s, from_goal_m) >= CLOSING_MIN_M_S:
+        return Outcome.LATE
+    return Outcome.STALLED
 
 
 def _with_holders(
