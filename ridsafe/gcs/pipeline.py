@@ -275,7 +275,7 @@ class EstimationPipeline:
         cycle through one batch (``detection.monitor.observe_batch``); detection never
         depends on the tracks, so it may run before the cycle's track updates."""
         cfg = self.config
-        keep_s = max(cfg.tracks.backfill_s, cfg.detection.window_s)
+        keep_s = cfg.claims_kept_s
         monitors = []
         for claim in claims:
             heard = self._heard.get(claim.uas_id)

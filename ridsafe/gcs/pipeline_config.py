@@ -545,6 +545,12 @@ class PipelineConfig:
     max_claim_wait_s: float = 0.5
 
     @property
+    def claims_kept_s(self) -> float:
+        """How long each transmitter's claims are kept (s): for detection's window and the
+        track start's backfill alike."""
+        return max(self.tracks.backfill_s, self.detection.window_s)
+
+    @property
     def localisation_sigma_db(self) -> float:
         """The RSSI noise std the localisers assume: ``rssi_sigma_db`` inflated."""
         if self.localisation_noise_inflation == 1.0:
@@ -564,7 +570,7 @@ class PipelineConfig:
                 "max_claims_per_cycle", f"expected >= 0, got {self.max_claims_per_cycle}"
             )
         check_positive("max_claim_wait_s", self.max_claim_wait_s)
-        kept_s = max(self.tracks.backfill_s, self.detection.window_s)
+        kept_s = self.claims_kept_s
         if self.tracks.init_spans_s[-1] > kept_s:
             raise FieldValueError(
                 "tracks.init_spans_s",
