@@ -2,7 +2,7 @@
 
 Off by default: the pipeline then takes the channel from ``pipeline.rssi_sigma_db`` and the
 free-space model, as before. On, those become starting points the calibration replaces once
-it has ``min_samples`` labelled receptions (``calibration/pipeline.py``).
+it has enough labelled receptions for the parameters it fits (``calibration/pipeline.py``).
 """
 
 from __future__ import annotations
@@ -20,8 +20,13 @@ class CalibrationConfig:
     """Online channel estimation from benign-to-benign receptions."""
 
     enabled: bool = False
-    #: Labelled receptions needed before the channel is estimated and detection starts.
-    min_samples: int = 300
+    #: Labelled receptions needed before the channel is estimated and detection starts:
+    #: ``samples_per_parameter`` for each parameter the fit has (1 exponent + a bias per
+    #: receiver + a level per transmitter seen), and never fewer than ``min_samples``. The
+    #: fit's precision follows the receptions per parameter, so the warm-up scales with the
+    #: fleet (16 aircraft: 33 parameters, 297 receptions; 8 aircraft: 153).
+    samples_per_parameter: float = 9.0
+    min_samples: int = 100
     #: ... and no earlier than this (sim seconds), so several geometries are seen.
     min_time_s: float = 2.0
     #: A claim is a cooperative aircraft's when it lies within this of one receiver's own
@@ -80,6 +85,7 @@ class CalibrationConfig:
             check_positive(name, getattr(self, name))
         for name in ("receiver_bias_prior_std_db", "student_dof", "sigma_floor_db"):
             check_positive(name, getattr(self, name))
+        check_non_negative("samples_per_parameter", self.samples_per_parameter)
         check_non_negative("min_time_s", self.min_time_s)
         check_non_negative("hold_s", self.hold_s)
         check_non_negative("refit_s", self.refit_s)

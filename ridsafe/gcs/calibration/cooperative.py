@@ -41,6 +41,11 @@ class LabelledReceptions:
     def __len__(self) -> int:
         return len(self.rssi_dbm)
 
+    def n_parameters(self) -> int:
+        """Parameters a channel fit of these receptions has (``channel_fit.py``): the
+        exponent, a bias per receiver and a level per transmitter."""
+        return 1 + len(set(self.rx_sysid)) + len(set(self.tx_sysid))
+
     def add(self, tx: int, rx: NDArray[np.int64], distance_m: FloatArray, rssi: FloatArray) -> None:
         for column, values in (
             (self.tx_sysid, [tx] * rx.shape[0]),

@@ -1,7 +1,8 @@
 r"""A GCS pipeline that is not told the channel: it calibrates on its cooperative aircraft.
 
 ``CalibratingPipeline`` wraps the estimation pipeline (``gcs/pipeline.py``). Until it has
-``min_samples`` labelled receptions (``cooperative.py``) and ``min_time_s`` has passed it
+enough labelled receptions (``cooperative.py``) for the parameters the fit has
+(``samples_per_parameter`` each, at least ``min_samples``) and ``min_time_s`` has passed it
 holds the claims (the last ``hold_s`` seconds); then it fits the channel
 (``channel_fit.py``, again every ``refit_s``: the first fit sees the aircraft on the ground
 at their depots, a different channel from the airborne one) and hands the inner pipeline
@@ -139,7 +140,10 @@ class CalibratingPipeline:
 
     def _ready(self, now_s: float) -> bool:
         cal = self.config.calibration
-        return now_s >= cal.min_time_s and len(self.labeller.samples) >= cal.min_samples
+        n = len(self.labeller.samples)
+        if now_s < cal.min_time_s or n < cal.min_samples:
+            return False
+        return n >= cal.samples_per_parameter * self.labeller.samples.n_parameters()
 
     def _fit(self) -> ChannelEstimate:
         s = self.labeller.samples

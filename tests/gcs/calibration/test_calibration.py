@@ -122,3 +122,27 @@ def test_fit_sigma_is_unbiased_with_few_samples() -> None:
         tx, rx, d, rssi, _, _ = _synthetic(10 + seed, 2.0, 2.0, 2.0, k=200)
         variances.append(fit_channel(tx, rx, d, rssi, CFG).sigma_db ** 2)
     assert float(np.mean(variances)) == pytest.approx(4.0, rel=0.05)
+
+
+@pytest.mark.parametrize("n_aircraft", [3, 6])
+def test_warm_up_scales_with_the_parameters_fitted(n_aircraft: int) -> None:
+    """The fit waits for ``samples_per_parameter`` receptions per parameter (1 exponent +
+    a bias per receiver + a level per transmitter): a fleet twice the size waits for about
+    twice the receptions, not a fixed count."""
+    cal = CalibrationConfig(enabled=True, min_samples=1, min_time_s=0.0, samples_per_parameter=5)
+    pipeline = CalibratingPipeline(PipelineConfig(calibration=cal))
+    positions = {i: [100.0 * i, 50.0 * (i % 2), 50.0] for i in range(1, n_aircraft + 1)}
+    samples_before = 0
+    for k in range(40):
+        samples_before = len(pipeline.labeller.samples)
+        claims = [
+            free_space_claim(f"RID{i}", float(k), p, {j: q for j, q in positions.items() if j != i})
+            for i, p in positions.items()
+        ]
+        pipeline.step(float(k) + 0.25, claims)
+        if pipeline.inner is not None:
+            break
+    assert pipeline.inner is not None
+    needed = 5 * (1 + 2 * n_aircraft)
+    assert pipeline.labeller.samples.n_parameters() == 1 + 2 * n_aircraft
+    assert samples_before < needed <= len(pipeline.labeller.samples)
