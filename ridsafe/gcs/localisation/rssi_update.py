@@ -189,18 +189,20 @@ def iplf_iterate(
 @dataclass(frozen=True, eq=False)
 class Linearisation:
     """The SLR of h over each batch item's observed-block posterior:
-    h(u) ~ A u + b + N(0, Omega); ``A`` (B, k, 4), ``b`` (B, k), ``Rt`` = R + Omega (B, k, k).
+    h(u) ~ A u + b + N(0, Omega); ``A`` (B, k, 4), ``b`` (B, k), R's diagonal ``r_db2``
+    (B, k) and ``E`` (B, 4, k) with Omega = E^T E (rank 4: ``iplf_kernels.py``).
     Computed once per hypothesis and used by every one of its modes."""
 
     A: FloatArray
     b: FloatArray
-    Rt: FloatArray
+    r_db2: FloatArray
+    E: FloatArray
 
 
 def linearise(meas: RssiMeasurement, post_mean: FloatArray, post_cov: FloatArray) -> Linearisation:
     """The linearisation of the final update over the posterior (``post_mean``, ``post_cov``
     from :func:`iplf_iterate`)."""
-    A, b, Rt = iplf_kernels.linearise_batch(
+    A, b, r_db2, E = iplf_kernels.linearise_batch(
         np.ascontiguousarray(post_mean),
         np.ascontiguousarray(post_cov),
         np.ascontiguousarray(meas.rx),
@@ -208,7 +210,7 @@ def linearise(meas: RssiMeasurement, post_mean: FloatArray, post_cov: FloatArray
         meas.rx_variance_db2_m2,
         meas.loss_db,
     )
-    return Linearisation(A, b, Rt)
+    return Linearisation(A, b, r_db2, E)
 
 
 def iplf_update(
@@ -222,7 +224,8 @@ def iplf_update(
         i_pt,
         lin.A,
         lin.b,
-        lin.Rt,
+        lin.r_db2,
+        lin.E,
         np.ascontiguousarray(meas.rssi),
     )
     return ModeUpdate(x, P, loglik)

@@ -43,10 +43,12 @@ def _prior(rng: np.random.Generator, batch: int, n: int, p: np.ndarray, spread: 
     return Gaussian(x, P)
 
 
-@pytest.mark.parametrize("n", [7, 10])
-def test_kernels_match_the_numpy_reference(n: int) -> None:
-    rng = np.random.default_rng(n)
-    rx = np.column_stack((rng.uniform(-500, 500, (12, 2)), rng.uniform(30, 100, 12)))
+@pytest.mark.parametrize(("n", "k"), [(7, 12), (10, 12), (7, 3), (10, 64)])
+def test_kernels_match_the_numpy_reference(n: int, k: int) -> None:
+    """The kernels' rank-8 innovation algebra (Woodbury) against the dense k x k reference,
+    with fewer receivers than that rank and with a 64-aircraft fleet's."""
+    rng = np.random.default_rng(n + k)
+    rx = np.column_stack((rng.uniform(-500, 500, (k, 2)), rng.uniform(30, 100, k)))
     p = np.array([50.0, -80.0, 60.0])
     meas = _meas(rng, p, rx)
     prior = _prior(rng, 4, n, p, 60.0)
