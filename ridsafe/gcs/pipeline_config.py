@@ -535,14 +535,16 @@ class PipelineConfig:
     #: Channel calibration on the cooperative aircraft (``calibration/``); off: the
     #: channel is ``rssi_sigma_db`` and free space, as configured.
     calibration: CalibrationConfig = field(default_factory=CalibrationConfig)
-    #: Work bound per cycle: at most this many claims run in one cycle (0: all), the rest
-    #: wait for the next cycles, oldest first; suspects' claims (alerted, new, or near an
-    #: alerting threshold: ``pipeline.SUSPICION``) never wait, none longer than
-    #: ``max_claim_wait_s``. Aircraft broadcasting in phase bring
-    #: all their claims to one cycle in four: 65 claims (64 aircraft) then run as 24, 24,
-    #: 17. Up to 23 aircraft and a spoofer nothing waits.
-    max_claims_per_cycle: int = 24
-    max_claim_wait_s: float = 0.5
+    #: Work bound per cycle: at most this many claims run in one cycle (0: all), or the
+    #: least even number per cycle that runs every waiting claim within
+    #: ``max_claim_wait_s`` if that is more; the rest wait for the next cycles, oldest
+    #: first; suspects' claims (alerted, new, or near an alerting threshold:
+    #: ``pipeline.SUSPICION``) never wait, none longer than ``max_claim_wait_s``. Aircraft
+    #: broadcasting in phase bring all their claims to one cycle in four: 65 claims (64
+    #: aircraft) then run as 17, 17, 17, 14, a second's claims over a second's cycles. Up to
+    #: 16 aircraft and a spoofer (the paper's fleets) nothing waits.
+    max_claims_per_cycle: int = 17
+    max_claim_wait_s: float = 0.75
 
     @property
     def claims_kept_s(self) -> float:

@@ -1,6 +1,7 @@
 """The work bound per cycle (``max_claims_per_cycle``): aligned broadcasts spread over the
-next cycles oldest first, alerted transmitters never wait and none waits too long, every
-claim runs exactly once, and under the bound nothing changes."""
+next cycles oldest first, evenly when they outnumber the bound, alerted transmitters never
+wait and none waits too long, every claim runs exactly once, and under the bound nothing
+changes."""
 
 from __future__ import annotations
 
@@ -43,6 +44,18 @@ def test_at_most_the_bound_per_cycle_and_every_claim_once() -> None:
     # once each (the last second's may still wait at the end), and per transmitter in order
     assert set(flat_bounded) == set(flat_unbounded)
     assert 0 <= len(flat_unbounded) - len(flat_bounded) <= SCENE.n_receivers + 1 - 5
+
+
+@pytest.mark.parametrize(("wait_s", "per_cycle"), [(0.75, [3, 3, 3, 3]), (0.5, [4, 4, 4, 0])])
+def test_more_claims_than_the_bound_spread_evenly_over_the_wait(
+    wait_s: float, per_cycle: list[int]
+) -> None:
+    """12 aligned claims a second against a bound of 1: the least even number per cycle
+    that runs each within ``max_claim_wait_s`` (4 cycles of 0.25 s, or 3)."""
+    runs = _claims_run(PipelineConfig(max_claims_per_cycle=1, max_claim_wait_s=wait_s))
+    first_heard = next(k for k, run in enumerate(runs) if run)
+    steady = [len(run) for run in runs[first_heard + 4 :]]
+    assert steady == per_cycle * (len(steady) // 4)
 
 
 def test_under_the_bound_nothing_changes() -> None:
