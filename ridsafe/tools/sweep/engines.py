@@ -179,7 +179,10 @@ def metrics_of_logs(
                 results[futures[future]] = future.result()
                 if on_done is not None:
                     on_done(done, len(logs))
-    return [r for r in results if r is not None]
+    metrics = [r for r in results if r is not None]
+    if len(metrics) != len(logs):  # every future either returned or raised above
+        raise RuntimeError(f"metrics of {len(logs) - len(metrics)} of {len(logs)} logs missing")
+    return metrics
 
 
 _WORKER_BASE: ScenarioFile | None = None
