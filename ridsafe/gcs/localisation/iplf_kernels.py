@@ -13,7 +13,7 @@ Computed without general solves (LAPACK's LU costs microseconds at these sizes):
 C = L L^T the points are m +/- 2 L e_c, so Psi = L G with G_c = (dZ_c - dZ_{c+4}) / 4 and
 A^T = L^-T G, A C A^T = G^T G.
 
-Nor with any k x k matrix (k receivers; each costs k^3 / 3 to factor, 0.1 ms at 64): pairing
+Nor with any k x k matrix (k receivers; factorising one costs k^3 / 3 multiply-adds): pairing
 the points c and c + 4, Phi = G^T G + E^T E with E_c = (dZ_c + dZ_{c+4}) / 4, so
 Omega = E^T E has rank 4, and with R = diag(d)::
 
