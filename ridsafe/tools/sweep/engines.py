@@ -26,6 +26,7 @@ import logging
 import os
 import socket
 import tempfile
+import threading
 import time
 import traceback
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -172,7 +173,12 @@ def metrics_of_logs(
                 on_done(k + 1, len(logs))
     else:
         with _thread_env():
-            pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"))
+            pool = ProcessPoolExecutor(
+                max_workers=workers,
+                mp_context=get_context("spawn"),
+                initializer=_exit_with_parent,
+                initargs=(os.getpid(),),
+            )
         with pool:
             futures = {pool.submit(run_metrics, log): k for k, log in enumerate(logs)}
             for done, future in enumerate(as_completed(futures), start=1):
@@ -186,11 +192,27 @@ def metrics_of_logs(
 
 
 _WORKER_BASE: ScenarioFile | None = None
+#: How often a pool worker checks that the process that started it is still there (s).
+PARENT_POLL_S = 1.0
 
 
-def _init_pool_worker(base: ScenarioFile) -> None:
+def _exit_with_parent(parent_pid: int) -> None:
+    """In a pool worker: exit once the process that started it is gone (a sweep killed,
+    even with SIGKILL, leaves no worker behind; without this they waited forever on a
+    queue nobody writes). A run cut short has no result, so the next sweep flies it."""
+
+    def watch() -> None:
+        while os.getppid() == parent_pid:
+            time.sleep(PARENT_POLL_S)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="parent-watch", daemon=True).start()
+
+
+def _init_pool_worker(base: ScenarioFile, parent_pid: int) -> None:
     global _WORKER_BASE  # noqa: PLW0603 (one base per worker process, sent once)
     _WORKER_BASE = base
+    _exit_with_parent(parent_pid)
 
 
 def _pool_task(spec: RunSpec, run_dir: str) -> RunOutcome:
@@ -233,7 +255,7 @@ class LocalPoolEngine:
                 max_workers=self.workers,
                 mp_context=get_context("spawn"),
                 initializer=_init_pool_worker,
-                initargs=(base,),
+                initargs=(base, os.getpid()),
             )
         try:
             futures: dict[Future[RunOutcome], RunSpec] = {
