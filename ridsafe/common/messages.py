@@ -178,6 +178,7 @@ class RidsafeDetector(enum.IntEnum):
     NIS_WINDOW = 3
     CUSUM = 4
     MLAT = 5
+    MLAT_LONG = 6
 
 
 class RidTransport(enum.IntEnum):

@@ -79,6 +79,14 @@ class DetectionConfig:
     # --- ours: tests across receivers and time
     #: Sliding window of the windowed tests (NIS_WINDOW, MLAT), seconds.
     window_s: float = 10.0
+    #: > 0: MLAT_LONG, the MLAT test over this longer window (seconds, more than
+    #: ``window_s``; the window holds at most the ring's 64 claims), its own detector with
+    #: its own threshold and, calibrating, its own empirical null. A constant lie's evidence
+    #: grows with the time it is heard, so on a channel whose errors are independent the long
+    #: window detects a weak lie sooner; where errors repeat over time (urban) the cooperative
+    #: aircraft's long-window statistics grow too, its null rises, and the short window keeps
+    #: its speed. 0: off (the paper-era detectors only).
+    long_window_s: float = 0.0
     #: False-alarm probability per transmission of POWER_SPREAD, NIS_WINDOW and MLAT; their
     #: statistics are reported as surprisal -log10(p-value), threshold -log10(this).
     p_false_alarm: float = 1e-6
@@ -90,6 +98,7 @@ class DetectionConfig:
         RidsafeDetector.MLAT,
         RidsafeDetector.NIS_WINDOW,
         RidsafeDetector.CUSUM,
+        RidsafeDetector.MLAT_LONG,  # reported only with long_window_s > 0
     )
 
     def __post_init__(self) -> None:
@@ -104,6 +113,12 @@ class DetectionConfig:
                 "p_false_alarm", f"expected 0 < p < 0.5, got {self.p_false_alarm}"
             )
         check_non_negative("cusum_drift", self.cusum_drift)
+        if self.long_window_s != 0.0 and not self.long_window_s > self.window_s:
+            raise FieldValueError(
+                "long_window_s",
+                f"expected 0 (off) or more than window_s={self.window_s:g}, "
+                f"got {self.long_window_s:g}",
+            )
         check_positive("cusum_threshold", self.cusum_threshold)
         for i, det in enumerate(self.alerting):
             if det is RidsafeDetector.FORCED:

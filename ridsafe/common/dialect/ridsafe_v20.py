@@ -373,8 +373,10 @@ RIDSAFE_DETECTOR_CUSUM = 4
 enums["RIDSAFE_DETECTOR"][4] = EnumEntry("RIDSAFE_DETECTOR_CUSUM", """Cumulative sum test on the normalised innovations.""")
 RIDSAFE_DETECTOR_MLAT = 5
 enums["RIDSAFE_DETECTOR"][5] = EnumEntry("RIDSAFE_DETECTOR_MLAT", """Distance between the multilateration fix and the claimed position.""")
-RIDSAFE_DETECTOR_ENUM_END = 6
-enums["RIDSAFE_DETECTOR"][6] = EnumEntry("RIDSAFE_DETECTOR_ENUM_END", """""")
+RIDSAFE_DETECTOR_MLAT_LONG = 6
+enums["RIDSAFE_DETECTOR"][6] = EnumEntry("RIDSAFE_DETECTOR_MLAT_LONG", """The multilateration test over a longer window of the transmitter's claims.""")
+RIDSAFE_DETECTOR_ENUM_END = 7
+enums["RIDSAFE_DETECTOR"][7] = EnumEntry("RIDSAFE_DETECTOR_ENUM_END", """""")
 
 # RIDSAFE_ALERT_STATE
 enums["RIDSAFE_ALERT_STATE"] = Enum()

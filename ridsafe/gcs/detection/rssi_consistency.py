@@ -28,12 +28,15 @@ Detectors (each reports a statistic and a decision per transmission):
   position, so this is "estimated vs claimed position" with an honest covariance A^-1.
 - CUSUM (Page 1954): on z_j = Phi^-1(1 - p_j), p_j the single-transmission MLAT p-value
   (N(0, 1) under H0 for any degrees of freedom): g_j = max(0, g_{j-1} + z_j - drift).
+- MLAT_LONG (with ``long_window_s`` > 0): MLAT over the last ``long_window_s`` seconds. A
+  constant lie's evidence grows with the time it is heard; a separate detector, so a
+  calibrating GCS learns its null apart from the short window's (``calibration/review.py``).
 
 Statistics of the chi-square tests with varying degrees of freedom (POWER_SPREAD,
-NIS_WINDOW, MLAT) are reported as surprisal -log10(p-value) against -log10(p_false_alarm),
-so one threshold sweep draws a ROC curve. All window statistics come from per-transmission
-sufficient statistics kept in a ring (sums of w, w y, w y^2, w g, w g y, w g g^T), so a
-window costs one array sum.
+NIS_WINDOW, MLAT, MLAT_LONG) are reported as surprisal -log10(p-value) against
+-log10(p_false_alarm), so one threshold sweep draws a ROC curve. All window statistics come
+from per-transmission sufficient statistics kept in a ring (sums of w, w y, w y^2, w g,
+w g y, w g g^T), so a window costs one array sum.
 """
 
 from __future__ import annotations
@@ -198,7 +201,7 @@ class PairNis:
 
 
 class RssiConsistencyDetectors:
-    """The five detectors above for one claimed transmitter (benign or not), run together by
+    """The detectors above for one claimed transmitter (benign or not), run together by
     one compiled kernel (``rssi_consistency_kernels.observe_kernel``) on every claim heard
     by at least ``min_receivers``. The memory lives in a row of a ``RssiStatePool`` (by
     default the process's ``SHARED_POOL``), so ``observe_batch`` runs the claims of many
@@ -208,7 +211,8 @@ class RssiConsistencyDetectors:
     6 Hz sees its window shortened to the latest 64).
     """
 
-    #: What this bank reports, in the order of ``observe``'s results.
+    #: What this bank reports, in the order of ``observe``'s results; then MLAT_LONG when
+    #: ``long_window_s`` > 0.
     DETECTORS = (
         RidsafeDetector.NIS,
         RidsafeDetector.POWER_SPREAD,
@@ -236,6 +240,7 @@ class RssiConsistencyDetectors:
             cfg.nis_q_db2,
             cfg.nis_r_db2,
             cfg.nis_p0_db2,
+            cfg.long_window_s,
         )
         self.pool = SHARED_POOL if pool is None else pool
         self.row = self.pool.acquire(params)
@@ -293,30 +298,35 @@ class RssiConsistencyDetectors:
         self, nis: float, dof: list[int], delta: FloatArray, p: list[float], z: float
     ) -> tuple[DetectorResult, ...]:
         """One claim's results from the kernel's NIS, dofs, delta^, the p-values (spread,
-        window spread, window offset, single offset) and the single offset's probit."""
+        window spread, window offset, single offset, long-window offset) and the single
+        offset's probit."""
         cfg, uas_id, thr = self.cfg, self.uas_id, self._thr
-        dof_one, wdof, _rank_one, rank_win = dof
+        dof_one, wdof, _rank_one, rank_win, rank_long = dof
         self.last_offset_enu_m = delta
         self.cusum = cusum = max(0.0, self.cusum + z - cfg.cusum_drift)
         spread = _surprisal(p[0], dof_one)
         window = _surprisal(p[1], wdof)
         mlat = _surprisal(p[2], rank_win)
         nis_thr, cusum_thr = cfg.nis_threshold, cfg.cusum_threshold
-        return (
+        results = (
             DetectorResult(uas_id, RidsafeDetector.NIS, nis, nis_thr, nis > nis_thr),
             DetectorResult(uas_id, RidsafeDetector.POWER_SPREAD, spread, thr, spread > thr),
             DetectorResult(uas_id, RidsafeDetector.NIS_WINDOW, window, thr, window > thr),
             DetectorResult(uas_id, RidsafeDetector.CUSUM, cusum, cusum_thr, cusum > cusum_thr),
             DetectorResult(uas_id, RidsafeDetector.MLAT, mlat, thr, mlat > thr),
         )
+        if cfg.long_window_s <= 0.0:
+            return results
+        long = _surprisal(p[4], rank_long)
+        return (*results, DetectorResult(uas_id, RidsafeDetector.MLAT_LONG, long, thr, long > thr))
 
 
 #: The rows of every bank made without a pool of its own.
 SHARED_POOL = RssiStatePool()
 #: Columns of the kernel's (dofs, stats) behind the p-values (spread, window spread, window
-#: offset, single-claim offset): one chdtrc call for a whole cycle.
-_P_DOF = [0, 1, 3, 2]
-_P_STAT = [1, 2, 4, 3]
+#: offset, single-claim offset, long-window offset): one chdtrc call for a whole cycle.
+_P_DOF = [0, 1, 3, 2, 4]
+_P_STAT = [1, 2, 4, 3, 5]
 
 
 def _run_kernel(

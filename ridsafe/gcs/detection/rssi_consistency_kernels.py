@@ -19,7 +19,14 @@ from ridsafe.gcs.jit import jit
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["ROW", "observe_batch_kernel", "observe_kernel", "observe_params", "score_from_sums"]
+__all__ = [
+    "N_PARAMS",
+    "ROW",
+    "observe_batch_kernel",
+    "observe_kernel",
+    "observe_params",
+    "score_from_sums",
+]
 
 ROW = 19  # n, sw, swy, swyy, swg (3), swgy (3), swgg (9)
 RANK_TOL = 1e-9
@@ -108,7 +115,8 @@ def _tx_row(
 
 
 #: Layout of ``observe_kernel``'s ``params`` (``observe_params``).
-P_WINDOW_S, P_S2, P_POS2, P_LOSS, P_NIS_Q, P_NIS_R, P_NIS_P0 = range(7)
+P_WINDOW_S, P_S2, P_POS2, P_LOSS, P_NIS_Q, P_NIS_R, P_NIS_P0, P_LONG_WINDOW_S = range(8)
+N_PARAMS = 8
 
 
 def observe_params(
@@ -119,10 +127,12 @@ def observe_params(
     nis_q: float,
     nis_r: float,
     nis_p0: float,
+    long_window_s: float = 0.0,
 ) -> FloatArray:
     """The constants of ``observe_kernel`` packed once per transmitter (one argument to
-    pass instead of seven)."""
-    return np.array([window_s, s2, pos2, loss, nis_q, nis_r, nis_p0], dtype=np.float64)
+    pass instead of eight); ``long_window_s`` 0: no long window."""
+    values = [window_s, s2, pos2, loss, nis_q, nis_r, nis_p0, long_window_s]
+    return np.array(values, dtype=np.float64)
 
 
 @jit
@@ -139,12 +149,14 @@ def observe_kernel(
     t_s: float,
     y_ref: float,
     params: FloatArray,
-) -> tuple[float, float, int, float, int, float, int, float, int, FloatArray]:
+) -> tuple[float, float, int, float, int, float, int, float, int, FloatArray, float, int]:
     """One transmission: (max pair NIS, spread T, dof, window spread T, dof, single-tx offset
-    T, rank, window offset T, rank, window delta^). Updates the pair filters (one slot per
-    MAVLink system id, ``rx_sysid & 0xFF``) and the ring (the oldest slot is replaced) in
-    place. ``params`` from ``observe_params``; its ``pos2`` = (20/ln10 sigma_pos)^2."""
+    T, rank, window offset T, rank, window delta^, long-window offset T, rank (0, 0 without
+    a long window)). Updates the pair filters (one slot per MAVLink system id,
+    ``rx_sysid & 0xFF``) and the ring (the oldest slot is replaced) in place. ``params``
+    from ``observe_params``; its ``pos2`` = (20/ln10 sigma_pos)^2."""
     window_s, s2, pos2 = params[P_WINDOW_S], params[P_S2], params[P_POS2]
+    long_window_s = params[P_LONG_WINDOW_S]
     nis_q, nis_r, nis_p0 = params[P_NIS_Q], params[P_NIS_R], params[P_NIS_P0]
     k = rx.shape[0]
     y = np.empty(k)
@@ -169,12 +181,18 @@ def observe_kernel(
     ring[slot] = row
     ring_t[slot] = t_s
     window = np.zeros(ROW)
+    long_window = np.zeros(ROW)
     for r in range(ring.shape[0]):
         if ring_t[r] > t_s - window_s:
             window += ring[r]
+        if ring_t[r] > t_s - long_window_s:
+            long_window += ring[r]
     spread, dof, one, rank_one, _ = score_from_sums(row)
     wspread, wdof, win, rank_win, delta = score_from_sums(window)
-    return nis_max, spread, dof, wspread, wdof, one, rank_one, win, rank_win, delta
+    lwin, rank_lwin = 0.0, 0
+    if long_window_s > 0.0:
+        lwin, rank_lwin = score_from_sums(long_window)[2:4]
+    return nis_max, spread, dof, wspread, wdof, one, rank_one, win, rank_win, delta, lwin, rank_lwin
 
 
 @jit
@@ -198,39 +216,43 @@ def observe_batch_kernel(
     state: claim j is ``claimed[j]`` (B, 3) heard by receptions ``bounds[j]:bounds[j + 1]``
     of ``rx`` (R, 3), ``rssi``, ``rx_sysid``, at ``t_s[j]``; its transmitter's state is row
     ``rows[j]`` of ``pair_x``, ``pair_P``, ``pair_started`` (M, 256), ``ring`` (M, RING, ROW),
-    ``ring_t`` (M, RING), ``y_ref`` (M,), ``params`` (M, 7). The same arithmetic as one call
-    per claim. Returns (stats (B, 5): max pair NIS, spread T, window spread T, single-tx
-    offset T, window offset T; dofs (B, 4): spread dof, window dof, rank, window rank;
-    window delta^ (B, 3))."""
+    ``ring_t`` (M, RING), ``y_ref`` (M,), ``params`` (M, N_PARAMS). The same arithmetic as
+    one call per claim. Returns (stats (B, 6): max pair NIS, spread T, window spread T,
+    single-tx offset T, window offset T, long-window offset T; dofs (B, 5): spread dof, window
+    dof, rank, window rank, long-window rank; window delta^ (B, 3))."""
     b = claimed.shape[0]
-    stats = np.zeros((b, 5))
-    dofs = np.zeros((b, 4), dtype=np.int64)
+    stats = np.zeros((b, 6))
+    dofs = np.zeros((b, 5), dtype=np.int64)
     deltas = np.zeros((b, 3))
     for j in range(b):
         r = rows[j]
         lo, hi = bounds[j], bounds[j + 1]
-        nis, spread, dof, wspread, wdof, one, rank_one, win, rank_win, delta = observe_kernel(
-            claimed[j],
-            rx[lo:hi],
-            rssi[lo:hi],
-            rx_sysid[lo:hi],
-            pair_x[r],
-            pair_P[r],
-            pair_started[r],
-            ring[r],
-            ring_t[r],
-            t_s[j],
-            y_ref[r],
-            params[r],
+        (nis, spread, dof, wspread, wdof, one, rank_one, win, rank_win, delta, lwin, rank_lwin) = (
+            observe_kernel(
+                claimed[j],
+                rx[lo:hi],
+                rssi[lo:hi],
+                rx_sysid[lo:hi],
+                pair_x[r],
+                pair_P[r],
+                pair_started[r],
+                ring[r],
+                ring_t[r],
+                t_s[j],
+                y_ref[r],
+                params[r],
+            )
         )
         stats[j, 0] = nis
         stats[j, 1] = spread
         stats[j, 2] = wspread
         stats[j, 3] = one
         stats[j, 4] = win
+        stats[j, 5] = lwin
         dofs[j, 0] = dof
         dofs[j, 1] = wdof
         dofs[j, 2] = rank_one
         dofs[j, 3] = rank_win
+        dofs[j, 4] = rank_lwin
         deltas[j] = delta
     return stats, dofs, deltas

@@ -8,7 +8,7 @@ of a GCS cycle go through one compiled call (``observe_batch_kernel``) instead o
 - ``ring`` : (M, RING, ROW) float64 and ``ring_t`` : (M, RING) s: the window's per-claim
   sufficient statistics and their times (-inf: empty);
 - ``y_ref`` : (M,) dBm, the implied-power reference of the row's first claim;
-- ``params`` : (M, 7), the row's constants (``observe_params``).
+- ``params`` : (M, N_PARAMS), the row's constants (``observe_params``).
 
 A row is taken when a bank is made and given back when it is collected (``weakref.finalize``);
 full, the arrays double (banks keep their row number, never a view, so growing is safe).
@@ -21,7 +21,7 @@ from typing import TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
-from ridsafe.gcs.detection.rssi_consistency_kernels import ROW
+from ridsafe.gcs.detection.rssi_consistency_kernels import N_PARAMS, ROW
 
 __all__ = ["PAIR_SLOTS", "RING", "RssiStatePool"]
 
@@ -29,7 +29,6 @@ __all__ = ["PAIR_SLOTS", "RING", "RssiStatePool"]
 PAIR_SLOTS = 256
 #: The window keeps at most this many claims per transmitter.
 RING = 64
-_N_PARAMS = 7
 _Array = TypeVar("_Array", NDArray[np.float64], NDArray[np.bool_])
 
 
@@ -51,7 +50,7 @@ class RssiStatePool:
         self.ring = np.zeros((capacity, RING, ROW))
         self.ring_t = np.full((capacity, RING), -np.inf)
         self.y_ref = np.zeros(capacity)
-        self.params = np.zeros((capacity, _N_PARAMS))
+        self.params = np.zeros((capacity, N_PARAMS))
         self._free = list(range(capacity - 1, -1, -1))
 
     @property
@@ -63,7 +62,7 @@ class RssiStatePool:
         return self.capacity - len(self._free)
 
     def acquire(self, params: NDArray[np.float64]) -> int:
-        """A fresh row (empty filters and window) with constants ``params`` (7,)."""
+        """A fresh row (empty filters and window) with constants ``params`` (N_PARAMS,)."""
         if not self._free:
             self._grow()
         row = self._free.pop()

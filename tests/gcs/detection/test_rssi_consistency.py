@@ -141,7 +141,7 @@ def test_pair_nis_is_the_papers_scalar_filter() -> None:
 
 def test_kernel_matches_the_numpy_reference() -> None:
     rng = np.random.default_rng(9)
-    cfg = DetectionConfig(window_s=4.5)
+    cfg = DetectionConfig(window_s=4.5, long_window_s=6.5)
     monitor = RssiConsistencyDetectors("X", cfg, 1.0)
     reference = PairNis(cfg)
     true = np.array([10.0, 20.0, 60.0])
@@ -156,8 +156,9 @@ def test_kernel_matches_the_numpy_reference() -> None:
         assert y_ref is not None
         rows.append((float(t), sufficient_statistics(ip, y_ref)))
         window = np.sum([r for s, r in rows if s > t - 4.5], axis=0)
+        long_window = np.sum([r for s, r in rows if s > t - 6.5], axis=0)
         nis = reference.step(np.arange(1, 8, dtype=np.int64), ip)
-        T, rank, _ = offset_score_test(np.stack((rows[-1][1], window)))
+        T, rank, _ = offset_score_test(np.stack((rows[-1][1], window, long_window)))
         assert results[RidsafeDetector.NIS].statistic == pytest.approx(nis, rel=1e-9)
         assert results[RidsafeDetector.POWER_SPREAD].statistic == pytest.approx(
             surprisal(*spread_test(rows[-1][1])), rel=1e-6
@@ -168,6 +169,42 @@ def test_kernel_matches_the_numpy_reference() -> None:
         assert results[RidsafeDetector.MLAT].statistic == pytest.approx(
             surprisal(T[1], int(rank[1])), rel=1e-6
         )
+        assert results[RidsafeDetector.MLAT_LONG].statistic == pytest.approx(
+            surprisal(T[2], int(rank[2])), rel=1e-6
+        )
+    assert len(rows) > 6  # the long window held claims the short one had dropped
+
+
+def test_without_a_long_window_there_is_no_long_window_result() -> None:
+    rng = np.random.default_rng(3)
+    rx = _rx(rng, 6)
+    claim = _claim(0.0, np.zeros(3), rx, _honest_rssi(rng, np.zeros(3), rx, 1.0))
+    detectors = [r.detector for r in RssiConsistencyDetectors("X", PAPER, 1.0).observe(claim)]
+    assert detectors == list(RssiConsistencyDetectors.DETECTORS)
+
+
+@pytest.mark.parametrize("seed", [1, 5])
+def test_a_weak_lie_the_short_window_misses_is_caught_by_the_long_window(seed: int) -> None:
+    """A 35 m lie under 2 dB noise (synthetic traffic, 8 receivers, 60 s): the 10 s window
+    alerts late (seed 1) or never (seed 5); with a 30 s window MLAT_LONG alerts first, and
+    nobody honest is flagged."""
+    traffic = make_traffic(
+        Scene(
+            seed=seed,
+            n_receivers=8,
+            duration_s=60.0,
+            sigma_db=2.0,
+            spoofer_offset_enu_m=(25.0, 25.0, 0.0),
+        )
+    )
+    short = run_pipeline(traffic, PipelineConfig(rssi_sigma_db=2.0))
+    both = run_pipeline(
+        traffic,
+        PipelineConfig(rssi_sigma_db=2.0, detection=DetectionConfig(long_window_s=30.0)),
+    )
+    assert both.alert_detector is RidsafeDetector.MLAT_LONG
+    assert math.isnan(short.delay_s) or both.delay_s < short.delay_s - 1.0
+    assert short.false_alerts == both.false_alerts == 0
 
 
 def test_few_receivers_are_not_tested() -> None:
@@ -204,3 +241,5 @@ def test_config_validation_names_the_field() -> None:
         DetectionConfig(alerting=(RidsafeDetector.FORCED,))
     with pytest.raises(ValueError, match="p_false_alarm"):
         DetectionConfig(p_false_alarm=0.7)
+    with pytest.raises(ValueError, match="long_window_s"):
+        DetectionConfig(window_s=10.0, long_window_s=10.0)
