@@ -85,9 +85,10 @@ class DetectionConfig:
     #: grows with the time it is heard, so on a channel whose errors are independent the long
     #: window detects a weak lie sooner; where errors repeat over time (urban) the cooperative
     #: aircraft's long-window statistics grow too, its null rises, and the short window keeps
-    #: its speed. 0: off (the paper-era detectors only).
+    #: its speed. 0: off.
     long_window_s: float = 0.0
-    #: False-alarm probability per transmission of POWER_SPREAD, NIS_WINDOW and MLAT; their
+    #: False-alarm probability per transmission of POWER_SPREAD, NIS_WINDOW, MLAT and MLAT_LONG
+    #: (each; with the long window on, the two MLAT tests together up to twice this); their
     #: statistics are reported as surprisal -log10(p-value), threshold -log10(this).
     p_false_alarm: float = 1e-6
     #: CUSUM on the probit of each transmission's MLAT p-value: g = max(0, g + z - drift).
