@@ -7,7 +7,7 @@ import argparse
 from pathlib import Path
 
 from ridsafe.common.config import parse_override
-from ridsafe.common.runner import RunnerClock, freeze_startup_objects
+from ridsafe.common.runner import RunnerClock
 from ridsafe.tools.cli.arg_types import finite_float, positive_float
 from ridsafe.tools.run import process
 from ridsafe.tools.run.scenario import ScenarioFile, load_scenario_file
@@ -68,9 +68,10 @@ def make_clock(args: argparse.Namespace) -> RunnerClock:
     return process.make_clock(args.speed, args.t0_unix)
 
 
-def wait_for_start(args: argparse.Namespace, app: str) -> None:
-    """:func:`ridsafe.tools.run.process.wait_for_start` at ``--t0-unix`` and ``--speed``,
-    the objects built so far first frozen out of the garbage collector's reach
-    (``common.runner.freeze_startup_objects``), in the time left before the start."""
-    freeze_startup_objects()
-    process.wait_for_start(args.t0_unix, args.speed, app)
+def wait_for_start(
+    args: argparse.Namespace, app: str, stop: process.StopRequest | None = None
+) -> None:
+    """:func:`ridsafe.tools.run.process.wait_for_start` at ``--t0-unix`` and ``--speed``
+    (the objects built so far frozen out of the garbage collector's reach first), cut short
+    by ``stop``."""
+    process.wait_for_start(args.t0_unix, args.speed, app, stop)

@@ -205,11 +205,13 @@ def run(args: argparse.Namespace) -> int:
         process.close_sink(sink.inner)
         print(f"ridsafe companion: {exc}", file=sys.stderr)
         return 1
-    for sysid, conn in connections.items():
-        print(f"companion {sysid}: autopilot {conn.autopilot}, gcs {conn.gcs}", flush=True)
-    app_args.wait_for_start(args, f"companion {args.vehicle}")
-    restore = process.stop_on_sigterm(app.stop)
+    stop = process.StopRequest()  # a SIGTERM from here on closes the log
+    stop.forward_to(app.stop)
+    restore = process.stop_on_sigterm(stop.set)
     try:
+        for sysid, conn in connections.items():
+            print(f"companion {sysid}: autopilot {conn.autopilot}, gcs {conn.gcs}", flush=True)
+        app_args.wait_for_start(args, f"companion {args.vehicle}", stop)
         on_tick = None if args.keep_running else _StopWhenDone(app)
         app.run(until_s=args.duration, on_tick=on_tick)
     except KeyboardInterrupt:

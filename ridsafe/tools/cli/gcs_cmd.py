@@ -86,14 +86,16 @@ def run(args: argparse.Namespace) -> int:
         process.close_sink(gcs.sink)
         print(f"ridsafe gcs: cannot open {args.listen}: {exc}", file=sys.stderr)
         return 1
-    host, port = runner.endpoints["companions"].local_address
-    signed = "signed" if gcs.signing is not None else "unsigned"
-    print(f"GCS listening on udpin:{host}:{port} ({signed}); companions send there")
-    print(f"sim time: {_describe_clock(gcs, args.t0_unix)}")
-    print(f"running at {args.speed:g}x real time; Ctrl-C stops", flush=True)
-    app_args.wait_for_start(args, "gcs")
-    restore = process.stop_on_sigterm(runner.stop)
+    stop = process.StopRequest()  # a SIGTERM from here on closes the log
+    stop.forward_to(runner.stop)
+    restore = process.stop_on_sigterm(stop.set)
     try:
+        host, port = runner.endpoints["companions"].local_address
+        signed = "signed" if gcs.signing is not None else "unsigned"
+        print(f"GCS listening on udpin:{host}:{port} ({signed}); companions send there")
+        print(f"sim time: {_describe_clock(gcs, args.t0_unix)}")
+        print(f"running at {args.speed:g}x real time; Ctrl-C stops", flush=True)
+        app_args.wait_for_start(args, "gcs", stop)
         runner.run(until_s=args.duration, on_tick=_Progress(gcs, runner))
     except KeyboardInterrupt:
         print("\nstopped", file=sys.stderr)

@@ -89,21 +89,31 @@ def run(args: argparse.Namespace) -> int:
         process.close_sink(sink)
         print(f"ridsafe sim: cannot open the ports: {exc}", file=sys.stderr)
         return 1
-    for line in describe_ports(backend, loaded.sim.ports):
-        print(line)
-    print(f"running at {args.speed:g}x real time; Ctrl-C stops", flush=True)
-    app_args.wait_for_start(args, "sim")
-    runner = UdpRunner(backend, endpoints, app_args.make_clock(args), loaded.run.live_tick_s)
-    restore = process.stop_on_sigterm(runner.stop)
+    stop = process.StopRequest()  # a SIGTERM from here on closes the log
+    restore = process.stop_on_sigterm(stop.set)
+    runner: UdpRunner | None = None
     try:
+        for line in describe_ports(backend, loaded.sim.ports):
+            print(line)
+        print(f"running at {args.speed:g}x real time; Ctrl-C stops", flush=True)
+        app_args.wait_for_start(args, "sim", stop)
+        runner = UdpRunner(backend, endpoints, app_args.make_clock(args), loaded.run.live_tick_s)
+        stop.forward_to(runner.stop)
         runner.run(until_s=args.duration, on_tick=_Progress(backend))
     except KeyboardInterrupt:
         print("\nstopped", file=sys.stderr)
     finally:
         restore()
-        runner.close()
+        if runner is not None:
+            runner.close()
+        else:  # stopped before the start instant
+            for endpoint in endpoints.values():
+                endpoint.close()
         backend.finish(backend.t_s)
         process.close_sink(sink)
+    if runner is None:
+        print("stopped before the start")
+        return 0
     refused = sum(lock.foreign for lock in runner.locks.values())
     print(f"done at t = {backend.t_s:.1f} s; {runner.stats}; not from the peer: {refused}")
     return 0

@@ -8,7 +8,6 @@ around a core needs (its arguments are parsed in ``ridsafe.tools.cli.app_args``)
 
 from __future__ import annotations
 
-import gc
 import logging
 import signal
 import time
@@ -21,7 +20,7 @@ from ridsafe.common.clock import EpochClock, MonotonicClock
 from ridsafe.common.codec import SigningConfig, load_signing_key, signing_timestamp_from_unix
 from ridsafe.common.frames import GeodeticOrigin
 from ridsafe.common.logsink import LogSink, NullSink, TeeSink
-from ridsafe.common.runner import RunnerClock
+from ridsafe.common.runner import RunnerClock, freeze_startup_objects
 
 if TYPE_CHECKING:
     from ridsafe.tools.runlog.child_writer import RecorderProcess
@@ -40,23 +39,56 @@ def make_clock(speed: float, t0_unix: float | None) -> RunnerClock:
 LATE_START_WARNING_S = 0.5  # wall seconds after --t0-unix
 
 
-def wait_for_start(t0_unix: float | None, speed: float, app: str) -> None:
+#: How often the wait for the start instant looks for a stop request (wall seconds).
+START_WAIT_POLL_S = 0.1
+
+
+class StopRequest:
+    """A stop asked for before or while an app runs (``stop_on_sigterm(request.set)``):
+    ``set`` records it and calls every stop handed to ``forward_to``, which calls a stop at
+    once if the request came before it (a SIGTERM during the start-up wait)."""
+
+    def __init__(self) -> None:
+        self._set = False
+        self._stops: list[Callable[[], None]] = []
+
+    def set(self) -> None:
+        self._set = True
+        for stop in self._stops:
+            stop()
+
+    def is_set(self) -> bool:
+        return self._set
+
+    def forward_to(self, stop: Callable[[], None]) -> None:
+        self._stops.append(stop)
+        if self._set:
+            stop()
+
+
+def wait_for_start(
+    t0_unix: float | None, speed: float, app: str, stop: StopRequest | None = None
+) -> None:
     """Called by an app once its core is built: sleep until ``t0_unix`` (processes of a
-    live run start their cores together); an ``app`` that is ready only after it says so,
-    with how much of the run it missed.
+    live run start their cores together), or until ``stop`` is set; an ``app`` that is ready
+    only after it says so, with how much of the run it missed.
 
     It also takes everything built so far (modules, numba kernels, the core) out of the
-    garbage collector's reach (``gc.freeze``): a full collection walked all ~140,000 of those
-    objects, about 50 ms, and inside a 0.25 s GCS update that is 25 times its budget. The loop
-    then only ever scans what it made itself (the collection before it runs in the wait)."""
+    garbage collector's reach (``freeze_startup_objects``): a full collection walked all
+    ~140,000 of those objects, about 50 ms, and inside a 0.25 s GCS update that is 25 times
+    its budget. The loop then only ever scans what it made itself (the collection before it
+    runs in the wait)."""
     ready_unix_s = time.time()
-    gc.collect()
-    gc.freeze()
+    freeze_startup_objects()
     if t0_unix is None:
         return
     wait_s = t0_unix - ready_unix_s
     if wait_s >= 0.0:
-        time.sleep(max(0.0, t0_unix - time.time()))
+        while stop is None or not stop.is_set():
+            left_s = t0_unix - time.time()
+            if left_s <= 0.0:
+                break
+            time.sleep(min(left_s, START_WAIT_POLL_S))
     elif -wait_s > LATE_START_WARNING_S:
         logger.warning(
             "%s: ready %.1f s (wall) after the run's start instant; the first %.1f s of sim "

@@ -83,3 +83,16 @@ def test_sigterm_calls_stop_and_the_old_handler_comes_back() -> None:
         restore()
     assert stopped == [True]
     assert signal.getsignal(signal.SIGTERM) == previous
+
+
+def test_a_stop_request_cuts_the_wait_for_the_start_short() -> None:
+    stop = process.StopRequest()
+    stopped: list[str] = []
+    stop.set()  # before anything runs, as a SIGTERM during the start-up
+    stop.forward_to(lambda: stopped.append("runner"))  # forwarded at once
+    start = time.monotonic()
+    process.wait_for_start(time.time() + 30.0, 1.0, "gcs", stop)
+    assert time.monotonic() - start < 2.0
+    assert stopped == ["runner"]
+    stop.set()  # and again later: every forward target hears it
+    assert stopped == ["runner", "runner"]
