@@ -205,9 +205,8 @@ def run(args: argparse.Namespace) -> int:
         process.close_sink(sink.inner)
         print(f"ridsafe companion: {exc}", file=sys.stderr)
         return 1
-    stop = process.StopRequest()  # a SIGTERM from here on closes the log
+    stop, restore = process.stop_request_on_sigterm()
     stop.forward_to(app.stop)
-    restore = process.stop_on_sigterm(stop.set)
     try:
         for sysid, conn in connections.items():
             print(f"companion {sysid}: autopilot {conn.autopilot}, gcs {conn.gcs}", flush=True)

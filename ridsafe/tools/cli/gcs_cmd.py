@@ -86,9 +86,8 @@ def run(args: argparse.Namespace) -> int:
         process.close_sink(gcs.sink)
         print(f"ridsafe gcs: cannot open {args.listen}: {exc}", file=sys.stderr)
         return 1
-    stop = process.StopRequest()  # a SIGTERM from here on closes the log
+    stop, restore = process.stop_request_on_sigterm()
     stop.forward_to(runner.stop)
-    restore = process.stop_on_sigterm(stop.set)
     try:
         host, port = runner.endpoints["companions"].local_address
         signed = "signed" if gcs.signing is not None else "unsigned"

@@ -89,8 +89,7 @@ def run(args: argparse.Namespace) -> int:
         process.close_sink(sink)
         print(f"ridsafe sim: cannot open the ports: {exc}", file=sys.stderr)
         return 1
-    stop = process.StopRequest()  # a SIGTERM from here on closes the log
-    restore = process.stop_on_sigterm(stop.set)
+    stop, restore = process.stop_request_on_sigterm()
     runner: UdpRunner | None = None
     try:
         for line in describe_ports(backend, loaded.sim.ports):

@@ -44,7 +44,7 @@ START_WAIT_POLL_S = 0.1
 
 
 class StopRequest:
-    """A stop asked for before or while an app runs (``stop_on_sigterm(request.set)``):
+    """A stop asked for before or while an app runs (``stop_request_on_sigterm``):
     ``set`` records it and calls every stop handed to ``forward_to``, which calls a stop at
     once if the request came before it (a SIGTERM during the start-up wait)."""
 
@@ -170,3 +170,11 @@ def stop_on_sigterm(stop: Callable[[], None]) -> Callable[[], None]:
         signal.signal(signal.SIGTERM, previous)
 
     return restore
+
+
+def stop_request_on_sigterm() -> tuple[StopRequest, Callable[[], None]]:
+    """A ``StopRequest`` that SIGTERM sets, from now on (before the app announces itself, so
+    a supervisor's SIGTERM at any later point lets it close its log), and what restores the
+    previous handler."""
+    stop = StopRequest()
+    return stop, stop_on_sigterm(stop.set)
