@@ -175,9 +175,7 @@ class EstimationPipeline:
         """``review(claim, results)``: the results the alerts are decided on (default: the
         detectors' own), e.g. the calibration's (``calibration/review.py``)."""
         self._review = review
-        if not EstimationPipeline._warm:
-            warm_up()
-            EstimationPipeline._warm = True
+        EstimationPipeline.ensure_warm()
         self.config = config if config is not None else PipelineConfig()
         self._heard: dict[str, _Heard] = {}
         self._alerts: dict[str, _Alert] = {}
@@ -192,6 +190,14 @@ class EstimationPipeline:
         self._waiting: list[tuple[float, ObservedClaim]] = []  # (arrived s, claim)
         self._last_step_s: float | None = None
         self.compute_s: deque[float] = deque(maxlen=COMPUTE_HISTORY)
+
+    @classmethod
+    def ensure_warm(cls) -> None:
+        """Warm the kernels up once per process (``warm_up``): a pipeline that builds this
+        one later in a run (``calibration/pipeline.py``) calls it when it is built itself."""
+        if not cls._warm:
+            warm_up()
+            cls._warm = True
 
     # --- the GcsPipeline protocol ---------------------------------------------------------
 

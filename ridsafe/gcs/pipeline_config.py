@@ -529,7 +529,9 @@ class ForcedAlertConfig:
 class PipelineConfig:
     """Everything the estimation pipeline needs (nested sections above)."""
 
-    #: RSSI noise the pipeline assumes (dB), matching the scenario's default shadowing.
+    #: RSSI noise the pipeline assumes (dB), matching the scenario's default shadowing; with
+    #: ``calibration.enabled: auto`` (the default) only while the cooperative aircraft's
+    #: receptions agree.
     rssi_sigma_db: float = 1.0
     #: The localisers' RSSI variance is ``rssi_sigma_db^2`` times this (the detectors' is
     #: not inflated): the error the channel model leaves that repeats over time and links,
@@ -548,8 +550,9 @@ class PipelineConfig:
     forced_alert: ForcedAlertConfig = field(default_factory=ForcedAlertConfig)
     #: Ghosts: a still transmitter whose claim flies, published on the ground.
     ghosts: GroundTransmitterConfig = field(default_factory=GroundTransmitterConfig)
-    #: Channel calibration on the cooperative aircraft (``calibration/``); off: the
-    #: channel is ``rssi_sigma_db`` and free space, as configured.
+    #: Channel calibration on the cooperative aircraft (``calibration/``); ``auto``: the
+    #: channel is ``rssi_sigma_db`` and free space, as configured, while the receptions fit
+    #: it; off: whatever they say.
     calibration: CalibrationConfig = field(default_factory=CalibrationConfig)
     #: Work bound per cycle: at most this many claims run in one cycle (0: all), or the
     #: least even number per cycle that runs every waiting claim within

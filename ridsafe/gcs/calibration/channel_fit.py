@@ -15,6 +15,14 @@ p = n_tx + n_rx + 1: the second moment of the heavy-tailed noise, unbiased, so c
 and thresholds built from it stay honest; the plain RSS / K was 9 % low in std with 16
 aircraft at calibration time, enough for the window tests' 600 degrees of freedom to raise
 false alerts), next to the robust scale s.
+
+``check_configured_channel`` asks the other question first: do the labelled receptions fit
+the channel the GCS was configured with (free space, Gaussian noise of ``rssi_sigma_db`` plus
+the detectors' position term, a level per transmitter that the trackers estimate anyway)?
+The residuals' chi-square against its own distribution decides (``calibration.enabled:
+auto``, ``pipeline.py``): a channel noisier than configured, a path-loss exponent that is
+not 2, receiver biases or heavy tails all raise it; a quieter channel does not, and the
+configured one is then merely conservative.
 """
 
 from __future__ import annotations
@@ -23,13 +31,15 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.stats import chi2
 
+from ridsafe.common.pathloss import DB_PER_LN
 from ridsafe.gcs.calibration.config import CalibrationConfig
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
-__all__ = ["ChannelEstimate", "fit_channel"]
+__all__ = ["ChannelEstimate", "ConfiguredChannelCheck", "check_configured_channel", "fit_channel"]
 
 #: IRLS passes.
 IRLS_PASSES = 8
@@ -98,4 +108,52 @@ def fit_channel(
         sigma_db=float(np.sqrt(np.sum(residual**2) / max(k - (n_tx + n_rx + 1), 1))),
         robust_scale_db=float(np.sqrt(scale2)),
         n_samples=k,
+    )
+
+
+@dataclass(frozen=True)
+class ConfiguredChannelCheck:
+    """How the labelled receptions fit the configured channel (module docstring)."""
+
+    chi_square: float
+    dof: int
+    residual_std_db: float  # root-mean-square residual about each transmitter's level
+    p_value: float  # P(chi2_dof >= chi_square) were the configured channel the truth
+    fits: bool  # p_value >= the test's alpha
+
+    def describe(self) -> str:
+        return (
+            f"residual std {self.residual_std_db:.2f} dB over {self.dof} degrees of freedom, "
+            f"chi-square p = {self.p_value:.2g}"
+        )
+
+
+def check_configured_channel(
+    tx_sysid: IntArray,
+    distance_m: FloatArray,
+    rssi_dbm: FloatArray,
+    sigma_db: float,
+    position_sigma_m: float,
+    alpha: float,
+) -> ConfiguredChannelCheck:
+    """Test ``(K,)`` labelled receptions against free space with noise std ``sigma_db`` and
+    a position error ``position_sigma_m`` per end (the detectors' variance,
+    ``sigma^2 + (8.69 sigma_p / d)^2``), each transmitter's level fitted by weighted least
+    squares; the configured channel fits unless the chi-square's p-value is below
+    ``alpha``."""
+    d = np.maximum(distance_m, 1.0)
+    level = rssi_dbm + 20.0 * np.log10(d)  # P_s + e_k under the configured channel
+    weight = 1.0 / (sigma_db**2 + (DB_PER_LN * position_sigma_m / d) ** 2)
+    tx_ids, tx_col = np.unique(tx_sysid, return_inverse=True)
+    fitted = np.bincount(tx_col, weight * level) / np.bincount(tx_col, weight)
+    residual = level - fitted[tx_col]
+    dof = max(rssi_dbm.shape[0] - tx_ids.shape[0], 1)
+    chi_square = float(np.sum(weight * residual**2))
+    p_value = float(chi2.sf(chi_square, dof))
+    return ConfiguredChannelCheck(
+        chi_square=chi_square,
+        dof=dof,
+        residual_std_db=float(np.sqrt(np.sum(residual**2) / dof)),
+        p_value=p_value,
+        fits=p_value >= alpha,
     )

@@ -1,13 +1,16 @@
 """Configuration of the GCS's channel calibration (YAML ``pipeline.calibration``).
 
-Off by default: the pipeline then takes the channel from ``pipeline.rssi_sigma_db`` and the
-free-space model, as before. On, those become starting points the calibration replaces once
-it has enough labelled receptions for the parameters it fits (``calibration/pipeline.py``).
+``auto`` by default: the configured channel (``pipeline.rssi_sigma_db``, free space) is kept
+as long as the cooperative aircraft's receptions fit it, and replaced by the fitted one the
+first time they do not. On (``true``), the configured channel is only a starting point the
+calibration replaces once it has enough labelled receptions for the parameters it fits
+(``calibration/pipeline.py``). Off, it is trusted whatever the receptions say.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 from ridsafe.common.checks import check_non_negative, check_positive
 from ridsafe.common.errors import FieldValueError
@@ -19,7 +22,23 @@ __all__ = ["CalibrationConfig"]
 class CalibrationConfig:
     """Online channel estimation from benign-to-benign receptions."""
 
-    enabled: bool = False
+    #: false: the configured channel, trusted; true: the fitted channel; ``auto``: the
+    #: configured channel while the cooperative receptions fit it (``configured_alpha``,
+    #: checked at the warm-up and every ``refit_s`` while no alert is raised), the fitted
+    #: one from the first check that rejects it. In both calibrating modes the cooperative
+    #: cross-check (``cooperative_veto``) runs; the empirical null and the localisation
+    #: inflation only on the fitted channel.
+    enabled: bool | Literal["auto"] = "auto"
+    #: ``auto``: the configured channel is tested (``channel_fit.check_configured_channel``)
+    #: from ``configured_min_samples`` labelled receptions on (the test fits a level per
+    #: transmitter only), each cycle until decided: kept at once when the chi-square's
+    #: p-value is at least ``configured_accept_p``, rejected (the channel fitted) when it is
+    #: below ``configured_alpha``; in between the test waits for more receptions, up to the
+    #: fit's warm-up, where ``configured_alpha`` alone decides. Later checks (every
+    #: ``refit_s``) reject below ``configured_alpha``.
+    configured_min_samples: int = 30
+    configured_accept_p: float = 0.05
+    configured_alpha: float = 1e-3
     #: Labelled receptions needed before the channel is estimated and detection starts:
     #: ``samples_per_parameter`` for each parameter the fit has (1 exponent + a bias per
     #: receiver + a level per transmitter seen), and never fewer than ``min_samples``. The
@@ -76,7 +95,8 @@ class CalibrationConfig:
     hold_s: float = 10.0
 
     def __post_init__(self) -> None:
-        for name in ("min_samples", "min_matches", "max_samples", "null_min_claims"):
+        names = ("min_samples", "min_matches", "max_samples", "null_min_claims")
+        for name in (*names, "configured_min_samples"):
             if getattr(self, name) < 1:
                 raise FieldValueError(name, f"expected >= 1, got {getattr(self, name)}")
         for name in ("match_m", "match_age_s", "vouch_m", "exponent_prior", "exponent_prior_std"):
@@ -90,6 +110,12 @@ class CalibrationConfig:
         check_non_negative("hold_s", self.hold_s)
         check_non_negative("refit_s", self.refit_s)
         check_non_negative("min_receiver_height_m", self.min_receiver_height_m)
+        if not 0.0 < self.configured_alpha <= self.configured_accept_p < 1.0:
+            raise FieldValueError(
+                "configured_alpha",
+                "expected 0 < configured_alpha <= configured_accept_p < 1, got "
+                f"{self.configured_alpha} and {self.configured_accept_p}",
+            )
         if not 0.0 <= self.max_mismatch_fraction < 0.5:
             raise FieldValueError(
                 "max_mismatch_fraction", f"expected 0 <= f < 0.5, got {self.max_mismatch_fraction}"

@@ -26,6 +26,15 @@ gets wrong (heavy tails, errors repeated over time and links) the alert review m
 the cooperative aircraft (``review.py``): the alert thresholds and the localisers' noise
 follow it. The first alert can come no earlier than the calibration (a detection delay
 measured in the report).
+
+``calibration.enabled: auto`` (the default) asks first whether the channel is the
+configured one (``channel_fit.check_configured_channel``: the labelled receptions'
+chi-square under free space with ``rssi_sigma_db``) from ``configured_min_samples`` on.
+While it is, the inner pipeline runs on the configured channel and the RSSI as received,
+exactly as with calibration off, but for the cooperative cross-check and the first alert's
+floor at the check; the check is repeated every ``refit_s`` until an alert is raised, and
+the first that rejects the configured channel fits the channel and replays the held claims
+into a pipeline on the fit, from then on as ``enabled: true``.
 """
 
 from __future__ import annotations
@@ -37,7 +46,13 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ridsafe.gcs.calibration.channel_fit import ChannelEstimate, fit_channel
+from ridsafe.gcs.calibration.channel_fit import (
+    ChannelEstimate,
+    ConfiguredChannelCheck,
+    check_configured_channel,
+    fit_channel,
+)
+from ridsafe.gcs.calibration.config import CalibrationConfig
 from ridsafe.gcs.calibration.cooperative import CooperativeLabeller
 from ridsafe.gcs.calibration.review import CalibratedReview
 from ridsafe.gcs.pipeline import EstimationPipeline
@@ -78,50 +93,135 @@ def to_free_space(
 
 
 class CalibratingPipeline:
-    """The ``GcsPipeline`` protocol: calibrate, then the estimation pipeline on mapped RSSI."""
+    """The ``GcsPipeline`` protocol: calibrate, then the estimation pipeline on mapped RSSI
+    (``calibration.enabled: true``), or on the RSSI as received while the configured channel
+    fits the cooperative receptions (``auto``; ``estimate`` is None while it does)."""
 
     def __init__(self, config: PipelineConfig) -> None:
+        EstimationPipeline.ensure_warm()  # the inner pipeline comes mid-run
         self.config = config
         self.labeller = CooperativeLabeller(config.calibration)
         self.review = CalibratedReview(config.calibration, self.labeller)
         self.estimate: ChannelEstimate | None = None
         self.inner: EstimationPipeline | None = None
         self._held: deque[ObservedClaim] = deque()
-        self._fitted_s = 0.0
+        self._newest_held_s = 0.0
+        self._checked_s = 0.0  # when the channel was last fitted or checked
         self._pivot_dbm = 0.0  # the first fit's mean transmitter level (module docstring)
+        self._configured_rejected = False
+
+    @property
+    def on_configured_channel(self) -> bool:
+        """``auto``, and the configured channel still fits the cooperative receptions."""
+        return self.inner is not None and self.estimate is None
 
     def step(self, now_s: float, claims: Sequence[ObservedClaim]) -> CycleOutput:
         for claim in claims:
             self.labeller.observe(claim)
-        if self.inner is None or self.estimate is None:
+        if self.inner is None:
             self._hold(claims)
-            if not self._ready(now_s):
+            if not self._start(now_s):
                 return CycleOutput()
-            self.estimate, self._fitted_s = self._fit(), now_s
-            self._pivot_dbm = float(np.mean(list(self.estimate.tx_level_db.values())))
-            self.inner = EstimationPipeline(self._calibrated_config(self.estimate), self.review)
             claims, self._held = list(self._held), deque()
+        elif self.on_configured_channel and self._may_switch():
+            self._hold(claims)  # replayed should a later check reject the configured channel
+            check = self._check_configured(now_s) if self._check_due(now_s) else None
+            if check is not None and not check.fits:
+                self._reject_configured(now_s, check)
+                self._start_fitted(now_s)
+                claims, self._held = list(self._held), deque()
+        elif self.on_configured_channel and self.labeller.learning:
+            self._held.clear()  # an alert is raised: the configured channel stays
+            self.labeller.learning = False
         elif self._refit_due(now_s):
-            self.estimate, self._fitted_s = self._fit(), now_s
+            self.estimate, self._checked_s = self._fit(), now_s
+        assert self.inner is not None
         h = self.config.calibration.min_receiver_height_m
-        mapped = [
-            to_free_space(airborne_receptions(c, h), self.estimate, self._pivot_dbm) for c in claims
-        ]
-        out = self.inner.step(now_s, mapped)
+        claims = [airborne_receptions(c, h) for c in claims]
+        if self.estimate is not None:
+            claims = [to_free_space(c, self.estimate, self._pivot_dbm) for c in claims]
+        out = self.inner.step(now_s, claims)
         self._update_inflation(now_s)
         return out
+
+    def _start(self, now_s: float) -> bool:
+        """Start the inner pipeline once the labelled receptions allow: on the configured
+        channel if ``auto`` and it fits them (``CalibrationConfig.configured_accept_p``),
+        else on the fit (its full warm-up)."""
+        cal = self.config.calibration
+        if cal.enabled == "auto" and not self._configured_rejected:
+            if now_s < cal.min_time_s or len(self.labeller.samples) < cal.configured_min_samples:
+                return False
+            check = self._check_configured(now_s)
+            if check.fits and (check.p_value >= cal.configured_accept_p or self._ready(now_s)):
+                logger.info("t=%.2f s: the configured channel fits: %s", now_s, check.describe())
+                review = CalibratedReview(self._veto_only(), self.labeller)
+                self.inner = EstimationPipeline(self.config, review)
+                return True
+            if check.fits:
+                return False  # not sure yet: more receptions
+            self._reject_configured(now_s, check)
+        if not self._ready(now_s):
+            return False
+        self._start_fitted(now_s)
+        return True
+
+    def _start_fitted(self, now_s: float) -> None:
+        self.estimate, self._checked_s = self._fit(), now_s
+        self._pivot_dbm = float(np.mean(list(self.estimate.tx_level_db.values())))
+        self.inner = EstimationPipeline(self._calibrated_config(self.estimate), self.review)
+
+    def _veto_only(self) -> CalibrationConfig:
+        """The review on the configured channel: the cross-check, nothing fitted."""
+        return dataclasses.replace(
+            self.config.calibration, empirical_null=False, honest_covariance=False
+        )
+
+    def _check_configured(self, now_s: float) -> ConfiguredChannelCheck:
+        s = self.labeller.samples
+        self._checked_s = now_s
+        return check_configured_channel(
+            s.tx_sysid,
+            s.distance_m,
+            s.rssi_dbm,
+            self.config.rssi_sigma_db,
+            self.config.detection.position_sigma_m,
+            self.config.calibration.configured_alpha,
+        )
+
+    def _reject_configured(self, now_s: float, check: ConfiguredChannelCheck) -> None:
+        self._configured_rejected = True
+        logger.warning(
+            "t=%.2f s: the channel is not the configured one (pipeline.rssi_sigma_db %.2f dB, "
+            "free space): %s; calibrating on the cooperative aircraft",
+            now_s,
+            self.config.rssi_sigma_db,
+            check.describe(),
+        )
+
+    def _may_switch(self) -> bool:
+        """Until an alert is raised: a switch replays the held claims into a new pipeline,
+        which cannot take over the old one's alerts and tracks."""
+        return self.inner is not None and not self.inner.alerted and not self.inner.tracks
+
+    def _check_due(self, now_s: float) -> bool:
+        """``auto`` on the configured channel: every ``refit_s``."""
+        refit_s = self.config.calibration.refit_s
+        return refit_s > 0.0 and now_s - self._checked_s >= refit_s
 
     def _refit_due(self, now_s: float) -> bool:
         """Every ``refit_s``, while no track runs: a track takes a changed mapping for a
         change of range (its transmit power a slow random walk)."""
         refit_s = self.config.calibration.refit_s
-        if refit_s <= 0.0 or now_s - self._fitted_s < refit_s:
+        if refit_s <= 0.0 or now_s - self._checked_s < refit_s:
             return False
         return self.inner is not None and not self.inner.tracks
 
     def _update_inflation(self, now_s: float) -> None:
         """Tracks started from now on localise with the noise the vouched claims show."""
-        if self.inner is None or not self.config.calibration.honest_covariance:
+        if self.inner is None or self.estimate is None:
+            return
+        if not self.config.calibration.honest_covariance:
             return
         inflation = self.review.localisation_inflation(now_s)
         self.inner.config = dataclasses.replace(
@@ -134,8 +234,9 @@ class CalibratingPipeline:
 
     def _hold(self, claims: Sequence[ObservedClaim]) -> None:
         self._held.extend(claims)
-        newest = max((c.t_s for c in self._held), default=0.0)
-        while self._held and self._held[0].t_s < newest - self.config.calibration.hold_s:
+        self._newest_held_s = max([self._newest_held_s, *(c.t_s for c in claims)])
+        oldest_s = self._newest_held_s - self.config.calibration.hold_s
+        while self._held and self._held[0].t_s < oldest_s:
             self._held.popleft()
 
     def _ready(self, now_s: float) -> bool:
@@ -148,10 +249,10 @@ class CalibratingPipeline:
     def _fit(self) -> ChannelEstimate:
         s = self.labeller.samples
         estimate = fit_channel(
-            np.array(s.tx_sysid, dtype=np.int64),
-            np.array(s.rx_sysid, dtype=np.int64),
-            np.array(s.distance_m, dtype=np.float64),
-            np.array(s.rssi_dbm, dtype=np.float64),
+            s.tx_sysid,
+            s.rx_sysid,
+            s.distance_m,
+            s.rssi_dbm,
             self.config.calibration,
         )
         logger.info(

@@ -75,6 +75,13 @@ class SlidingMax:
         return self._queue[0][1] if self._queue else 0.0
 
 
+def _no_alert(results: tuple[DetectorResult, ...]) -> tuple[DetectorResult, ...]:
+    """``results`` with every decision false (the rest as they were)."""
+    if not any(r.decision for r in results):
+        return results
+    return tuple(dataclasses.replace(r, decision=False) if r.decision else r for r in results)
+
+
 #: The median of chi2 with 3 degrees of freedom.
 _CHI2_3_MEDIAN = float(chdtri(3, 0.5))
 
@@ -98,16 +105,15 @@ class CalibratedReview:
         if self.labeller.vouches(claim):
             self._vouched += 1
             for r in results:
-                self._null_of(r.detector).push(t_s, r.statistic)
-                if r.detector is RidsafeDetector.MLAT:
+                if self.cfg.empirical_null:
+                    self._null_of(r.detector).push(t_s, r.statistic)
+                if self.cfg.honest_covariance and r.detector is RidsafeDetector.MLAT:
                     self._mlat.append((t_s, r.statistic))
-            if self.cfg.cooperative_veto:
-                return tuple(dataclasses.replace(r, decision=False) for r in results)
-            return results
+            return _no_alert(results) if self.cfg.cooperative_veto else results
         if not self.cfg.empirical_null:
             return results
         if self._vouched < self.cfg.null_min_claims:
-            return tuple(dataclasses.replace(r, decision=False) for r in results)
+            return _no_alert(results)
         return tuple(self._decide(r, t_s) for r in results)
 
     def localisation_inflation(self, now_s: float) -> float:

@@ -1,12 +1,12 @@
 """The report's channel section: every radio setting of a robustness sweep against issue 15's
 bar, and by how much a setting misses it.
 
-A sweep is a channel sweep when its config's GCS calibrates the channel
-(``pipeline.calibration.enabled``, e.g. ``configs/robustness.yaml``, ``configs/urban.yaml``) or
-one of its axes sets a ``scenario.radio`` key. One row per (variant, density): the GCS's
-numbers from the aware runs (containment, RMSE, detection delay median / 90th percentile /
-worst over runs, false alerts), benign-spoofer NMACs of both planners, the aware planner's
-delivered fraction.
+A sweep is a channel sweep when its config's GCS always fits the channel
+(``pipeline.calibration.enabled: true``, e.g. ``configs/robustness.yaml``,
+``configs/urban.yaml``) or one of its axes sets a ``scenario.radio`` key. One row per
+(variant, density): the GCS's numbers from the aware runs (containment, RMSE, detection
+delay median / 90th percentile / worst over runs, false alerts), benign-spoofer NMACs of
+both planners, the aware planner's delivered fraction.
 
 The bar: no false alert; containment >= ``MIN_CONTAINMENT`` and RMSE <= ``MAX_RMSE_M`` (the
 16-aircraft values from 16 aircraft up, the 8-aircraft ones below); detection delay median <=

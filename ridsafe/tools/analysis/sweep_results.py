@@ -186,7 +186,9 @@ class SweepResults:
     problems: tuple[tuple[str, str, str], ...]  # (run dir, status, last line of the reason)
     stale: int  # results of another config, skipped
     from_logs: int  # runs whose metrics were computed from run.mcap now
-    calibrating: bool = False  # its config's GCS calibrates the channel (pipeline.calibration)
+    #: its config's GCS always fits the channel (``pipeline.calibration.enabled: true``; not
+    #: ``auto``, which keeps the configured one while it fits)
+    calibrating: bool = False
 
     @property
     def flights_s(self) -> tuple[float, ...]:
@@ -254,7 +256,7 @@ def load_sweep(
         tuple(problems),
         stale,
         from_logs,
-        base.pipeline.calibration.enabled,
+        base.pipeline.calibration.enabled is True,
     )
 
 

@@ -104,7 +104,9 @@ def test_to_free_space_undoes_exponent_and_bias() -> None:
 
 
 def test_make_pipeline_honours_the_enable_flag() -> None:
-    assert isinstance(make_pipeline(PipelineConfig()), EstimationPipeline)
+    off = CalibrationConfig(enabled=False)
+    assert isinstance(make_pipeline(PipelineConfig(calibration=off)), EstimationPipeline)
+    assert isinstance(make_pipeline(PipelineConfig()), CalibratingPipeline)  # auto
     on = make_pipeline(PipelineConfig(calibration=CFG))
     assert isinstance(on, CalibratingPipeline)
     # Before calibrating it holds claims and answers nothing.
