@@ -28,6 +28,7 @@ TRACKS = "/gcs/tracks"
 REGIONS = "/gcs/unsafe_regions"
 GCS_CYCLE = "/gcs/cycle"
 DETECTOR_STATS = "/gcs/detector_stats"
+GCS_CHANNEL = "/gcs/channel"
 APP_COUNTERS = "/app/counters"
 SIM_EVENTS = "/sim/events"
 
@@ -147,6 +148,17 @@ TOPICS: dict[str, tuple[str, dict[str, str]]] = {
             "n_observations": "observations ingested since the last cycle",
             "n_transmissions": "transmissions processed",
             "n_tracks": "live tracks",
+        },
+    ),
+    GCS_CHANNEL: (
+        "GCS, when it takes a channel model (pipeline.calibration)",
+        {
+            "channel": "'configured' (pipeline.rssi_sigma_db, free space) or 'fitted'",
+            "n_samples": "labelled benign-to-benign receptions behind the decision",
+            "residual_std_db": "the receptions' residual std under the configured channel",
+            "p_value": "chi-square p-value of the configured channel (null: not tested)",
+            "exponent": "fitted path-loss exponent (null on the configured channel)",
+            "sigma_db": "fitted noise std, dB (null on the configured channel)",
         },
     ),
     DETECTOR_STATS: (

@@ -121,12 +121,28 @@ class UnsafeRegion:
 
 
 @dataclass(frozen=True)
+class ChannelDecision:
+    """Which channel the GCS now runs on, and why (``calibration/pipeline.py``): the
+    ``configured`` one, kept while the cooperative receptions fit it, or one ``fitted`` to
+    them. ``residual_std_db`` and ``p_value``: the test of the configured channel (NaN when
+    none was made); ``exponent`` and ``sigma_db``: the fit (NaN on the configured channel)."""
+
+    channel: str  # 'configured' or 'fitted'
+    n_samples: int
+    residual_std_db: float
+    p_value: float
+    exponent: float
+    sigma_db: float
+
+
+@dataclass(frozen=True)
 class CycleOutput:
     detector_results: tuple[DetectorResult, ...] = ()
     alert_changes: tuple[AlertChange, ...] = ()
     tracks: tuple[TrackEstimate, ...] = ()
     regions: tuple[UnsafeRegion, ...] = ()
     deleted_tracks: tuple[str, ...] = ()  # uas_ids whose track was deleted this cycle
+    channel: ChannelDecision | None = None  # the GCS changed (or fitted again) its channel
 
 
 class GcsPipeline(Protocol):

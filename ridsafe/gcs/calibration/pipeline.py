@@ -43,6 +43,7 @@ import dataclasses
 import logging
 from collections import deque
 from collections.abc import Sequence
+from math import nan
 
 import numpy as np
 
@@ -56,7 +57,13 @@ from ridsafe.gcs.calibration.config import CalibrationConfig
 from ridsafe.gcs.calibration.cooperative import CooperativeLabeller
 from ridsafe.gcs.calibration.review import CalibratedReview
 from ridsafe.gcs.pipeline import EstimationPipeline
-from ridsafe.gcs.pipeline_api import CycleOutput, GcsPipeline, ObservedClaim, readonly
+from ridsafe.gcs.pipeline_api import (
+    ChannelDecision,
+    CycleOutput,
+    GcsPipeline,
+    ObservedClaim,
+    readonly,
+)
 from ridsafe.gcs.pipeline_config import PipelineConfig
 
 logger = logging.getLogger(__name__)
@@ -109,6 +116,8 @@ class CalibratingPipeline:
         self._checked_s = 0.0  # when the channel was last fitted or checked
         self._pivot_dbm = 0.0  # the first fit's mean transmitter level (module docstring)
         self._configured_rejected = False
+        self._rejection: ConfiguredChannelCheck | None = None  # the check that rejected it
+        self._decision: ChannelDecision | None = None  # for this cycle's output
 
     @property
     def on_configured_channel(self) -> bool:
@@ -134,7 +143,7 @@ class CalibratingPipeline:
             self._held.clear()  # an alert is raised: the configured channel stays
             self.labeller.learning = False
         elif self._refit_due(now_s):
-            self.estimate, self._checked_s = self._fit(), now_s
+            self.estimate, self._checked_s = self._fit(None), now_s
         assert self.inner is not None
         h = self.config.calibration.min_receiver_height_m
         claims = [airborne_receptions(c, h) for c in claims]
@@ -142,6 +151,8 @@ class CalibratingPipeline:
             claims = [to_free_space(c, self.estimate, self._pivot_dbm) for c in claims]
         out = self.inner.step(now_s, claims)
         self._update_inflation(now_s)
+        if self._decision is not None:
+            out, self._decision = dataclasses.replace(out, channel=self._decision), None
         return out
 
     def _start(self, now_s: float) -> bool:
@@ -157,6 +168,10 @@ class CalibratingPipeline:
                 logger.info("t=%.2f s: the configured channel fits: %s", now_s, check.describe())
                 review = CalibratedReview(self._veto_only(), self.labeller)
                 self.inner = EstimationPipeline(self.config, review)
+                n_samples = len(self.labeller.samples)
+                self._decision = ChannelDecision(
+                    "configured", n_samples, check.residual_std_db, check.p_value, nan, nan
+                )
                 return True
             if check.fits:
                 return False  # not sure yet: more receptions
@@ -167,7 +182,7 @@ class CalibratingPipeline:
         return True
 
     def _start_fitted(self, now_s: float) -> None:
-        self.estimate, self._checked_s = self._fit(), now_s
+        self.estimate, self._checked_s = self._fit(self._rejection), now_s
         self._pivot_dbm = float(np.mean(list(self.estimate.tx_level_db.values())))
         self.inner = EstimationPipeline(self._calibrated_config(self.estimate), self.review)
 
@@ -190,7 +205,7 @@ class CalibratingPipeline:
         )
 
     def _reject_configured(self, now_s: float, check: ConfiguredChannelCheck) -> None:
-        self._configured_rejected = True
+        self._configured_rejected, self._rejection = True, check
         logger.warning(
             "t=%.2f s: the channel is not the configured one (pipeline.rssi_sigma_db %.2f dB, "
             "free space): %s; calibrating on the cooperative aircraft",
@@ -246,7 +261,9 @@ class CalibratingPipeline:
             return False
         return n >= cal.samples_per_parameter * self.labeller.samples.n_parameters()
 
-    def _fit(self) -> ChannelEstimate:
+    def _fit(self, rejection: ConfiguredChannelCheck | None) -> ChannelEstimate:
+        """Fit the channel to the labelled receptions; the decision goes to the output with
+        the check that rejected the configured channel, if this fit follows one."""
         s = self.labeller.samples
         estimate = fit_channel(
             s.tx_sysid,
@@ -264,6 +281,12 @@ class CalibratingPipeline:
             estimate.sigma_db,
             estimate.robust_scale_db,
             float(np.std(list(estimate.rx_bias_db.values()))),
+        )
+        std_db, p_value = (
+            (nan, nan) if rejection is None else (rejection.residual_std_db, rejection.p_value)
+        )
+        self._decision = ChannelDecision(
+            "fitted", estimate.n_samples, std_db, p_value, estimate.exponent, estimate.sigma_db
         )
         return estimate
 

@@ -66,6 +66,18 @@ def test_the_log_contains_every_channel(default_run: Path) -> None:
     assert {"/foxglove/aircraft", "/foxglove/unsafe_regions", "/foxglove/tf"} <= seen
 
 
+def test_the_gcs_logs_that_it_kept_the_configured_channel(default_run: Path) -> None:
+    """The default scenario's radio is the GCS's configured channel: the test on the
+    cooperative aircraft keeps it, once, before the first alert."""
+    records = list(read_records(default_run, topics=(topics.GCS_CHANNEL, topics.ALERTS)))
+    (decision,) = [(t, r) for topic, t, r in records if topic == topics.GCS_CHANNEL]
+    t_s, record = decision
+    assert record["channel"] == "configured" and record["p_value"] >= 0.05
+    assert record["exponent"] is None and 0.8 < record["residual_std_db"] < 1.2
+    first_alert_s = min(t for topic, t, _ in records if topic == topics.ALERTS)
+    assert t_s <= first_alert_s
+
+
 def test_the_spoofer_is_heard_reported_detected_and_tracked(default_run: Path) -> None:
     records = list(read_records(default_run))
     meta = next(r for t, _, r in records if t == topics.RUN_META)
