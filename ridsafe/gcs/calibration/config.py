@@ -23,8 +23,8 @@ class CalibrationConfig:
     """Online channel estimation from benign-to-benign receptions."""
 
     #: false: the configured channel, trusted; true: the fitted channel; ``auto``: the
-    #: configured channel while the cooperative receptions fit it (``configured_alpha``,
-    #: checked at the warm-up and every ``refit_s`` while no alert is raised), the fitted
+    #: configured channel while the cooperative receptions fit it (tested from
+    #: ``configured_min_samples`` on, then every ``refit_s`` until an alert), the fitted
     #: one from the first check that rejects it. In both calibrating modes the cooperative
     #: cross-check (``cooperative_veto``) runs; the empirical null and the localisation
     #: inflation only on the fitted channel.
@@ -89,7 +89,7 @@ class CalibrationConfig:
     #: often (s) until a track runs (``pipeline.py``); the noise std the detectors were built
     #: with stays, the empirical null and the localisation inflation (``review.py``) follow
     #: it. 0: fit once. The first fit sees aircraft on the ground at their depots, later
-    #: ones the airborne channel.
+    #: ones the airborne channel. ``auto`` tests the configured channel again this often.
     refit_s: float = 10.0
     #: Claims held while calibrating (seconds of history replayed once calibrated).
     hold_s: float = 10.0
