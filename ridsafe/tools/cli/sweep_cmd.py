@@ -148,7 +148,14 @@ def make_plan(args: argparse.Namespace) -> SweepPlan:
     overrides = dict(parse_override(text) for text in args.overrides)
     base, config = load_sweep_file(args.config, overrides)
     check_no_drawn_overrides(base, overrides)
-    plan = plan_sweep(base, sweep_config(args, config), str(args.config))
+    matrix = sweep_config(args, config)
+    for name, axis in matrix.params.items():
+        for key in sorted(set(axis.keys) & set(overrides)):
+            raise ValueError(
+                f"--set {key}: the sweep's axis '{name}' sets it for every run, so this value "
+                f"would never be flown; give its values with --vary {name}:{key}=V1,V2"
+            )
+    plan = plan_sweep(base, matrix, str(args.config))
     check_plan(plan)
     return plan
 

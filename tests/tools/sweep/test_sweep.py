@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -129,6 +130,23 @@ def test_flags_override_the_matrix() -> None:
     config = sweep_cmd.sweep_config(args, SweepConfig())
     assert (config.densities, config.seed_values, config.planners) == ((4, 8), (0, 1), ("aware",))
     assert len(sweep_cmd.make_plan(args).specs) == 4
+
+
+def test_a_set_of_a_key_an_axis_sets_is_an_error_not_silently_lost() -> None:
+    """``configs/adversaries.yaml`` sweeps ``family.adversaries.preset``: a ``--set`` of it
+    would be overwritten in every run."""
+    adversaries = REPO_ROOT / "configs" / "adversaries.yaml"
+    args = _cli(str(adversaries), "--set", "family.adversaries.preset=mixed")
+    with pytest.raises(ValueError, match=r"--set family.adversaries.preset: the sweep's axis "):
+        sweep_cmd.make_plan(args)
+    args = _cli(
+        str(PAPER), "--set", "pipeline.region.alpha=0.1", "--vary", "pipeline.region.alpha=0.01"
+    )
+    with pytest.raises(ValueError, match=re.escape("--vary alpha:pipeline.region.alpha=V1,V2")):
+        sweep_cmd.make_plan(args)
+    # A --set of a key no axis sets still applies.
+    args = _cli(str(adversaries), "--set", "planner.region_margin_m=40", "--seeds", "0")
+    assert len(sweep_cmd.make_plan(args).specs) > 0
 
 
 def test_dry_run_lists_the_full_matrix(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
