@@ -61,7 +61,6 @@ from ridsafe.gcs.config import GCS_COMPONENT_ID, GCS_SYSTEM_ID, ClockSource, Gcs
 from ridsafe.gcs.ingest import Ingest, RateLimitedLog, check_values
 from ridsafe.gcs.pipeline_api import (
     AlertChange,
-    ChannelDecision,
     CycleOutput,
     FloatArray,
     GcsPipeline,
@@ -470,7 +469,7 @@ class Gcs:
                 },
             )
         if output.channel is not None:
-            self.sink.log(topics.GCS_CHANNEL, now_s, _channel_record(output.channel))
+            self.sink.log(topics.GCS_CHANNEL, now_s, dataclasses.asdict(output.channel))
         for change in output.alert_changes:
             self.sink.log(topics.ALERTS, now_s, _alert_record(change))
         for track in output.tracks:
@@ -499,21 +498,6 @@ class Gcs:
 
 
 # --- helpers ---------------------------------------------------------------------------------
-
-
-def _finite_or_none(value: float) -> float | None:
-    return None if math.isnan(value) else float(value)
-
-
-def _channel_record(decision: ChannelDecision) -> dict[str, object]:
-    return {
-        "channel": decision.channel,
-        "n_samples": decision.n_samples,
-        "residual_std_db": _finite_or_none(decision.residual_std_db),
-        "p_value": _finite_or_none(decision.p_value),
-        "exponent": _finite_or_none(decision.exponent),
-        "sigma_db": _finite_or_none(decision.sigma_db),
-    }
 
 
 def _alert(t_s: float, change: AlertChange) -> m.SpoofAlert:

@@ -124,15 +124,15 @@ class UnsafeRegion:
 class ChannelDecision:
     """Which channel the GCS now runs on, and why (``calibration/pipeline.py``): the
     ``configured`` one, kept while the cooperative receptions fit it, or one ``fitted`` to
-    them. ``residual_std_db`` and ``p_value``: the test of the configured channel (NaN when
-    none was made); ``exponent`` and ``sigma_db``: the fit (NaN on the configured channel)."""
+    them. ``residual_std_db`` and ``p_value``: the test of the configured channel (None when
+    none was made); ``exponent`` and ``sigma_db``: the fit (None on the configured one)."""
 
     channel: str  # 'configured' or 'fitted'
     n_samples: int
-    residual_std_db: float
-    p_value: float
-    exponent: float
-    sigma_db: float
+    residual_std_db: float | None
+    p_value: float | None
+    exponent: float | None
+    sigma_db: float | None
 
 
 @dataclass(frozen=True)

@@ -43,7 +43,6 @@ import dataclasses
 import logging
 from collections import deque
 from collections.abc import Sequence
-from math import nan
 
 import numpy as np
 
@@ -170,7 +169,7 @@ class CalibratingPipeline:
                 self.inner = EstimationPipeline(self.config, review)
                 n_samples = len(self.labeller.samples)
                 self._decision = ChannelDecision(
-                    "configured", n_samples, check.residual_std_db, check.p_value, nan, nan
+                    "configured", n_samples, check.residual_std_db, check.p_value, None, None
                 )
                 return True
             if check.fits:
@@ -282,9 +281,8 @@ class CalibratingPipeline:
             estimate.robust_scale_db,
             float(np.std(list(estimate.rx_bias_db.values()))),
         )
-        std_db, p_value = (
-            (nan, nan) if rejection is None else (rejection.residual_std_db, rejection.p_value)
-        )
+        std_db = None if rejection is None else rejection.residual_std_db
+        p_value = None if rejection is None else rejection.p_value
         self._decision = ChannelDecision(
             "fitted", estimate.n_samples, std_db, p_value, estimate.exponent, estimate.sigma_db
         )

@@ -12,6 +12,7 @@ from ridsafe.common.config import from_mapping
 from ridsafe.common.errors import ConfigError
 from ridsafe.gcs.calibration.channel_fit import check_configured_channel
 from ridsafe.gcs.calibration.config import CalibrationConfig
+from ridsafe.gcs.calibration.cooperative import LabelledReceptions
 from ridsafe.gcs.calibration.pipeline import CalibratingPipeline
 from ridsafe.gcs.pipeline_api import ObservedClaim, readonly
 from ridsafe.gcs.pipeline_config import PipelineConfig
@@ -138,3 +139,17 @@ def test_auto_is_accepted_from_yaml_and_a_bad_alpha_is_an_error() -> None:
         from_mapping(CalibrationConfig, {"enabled": "sometimes"}, "x.yaml")
     with pytest.raises(ConfigError, match="configured_alpha"):
         from_mapping(CalibrationConfig, {"enabled": "auto", "configured_alpha": 0.0}, "x.yaml")
+
+
+def test_the_labelled_receptions_keep_the_newest_when_full() -> None:
+    """A ring of 5: after 3 + 4 + 2 receptions the 5 newest remain, whatever their order."""
+    ring = LabelledReceptions(5)
+    newest: list[float] = []
+    for tx, k in ((1, 3), (2, 4), (3, 2)):
+        rssi = np.arange(k, dtype=np.float64) + 10.0 * tx
+        ring.add(tx, np.arange(k, dtype=np.int64), rssi + 1000.0, rssi)
+        newest = (newest + rssi.tolist())[-5:]
+    assert len(ring) == 5
+    assert sorted(ring.rssi_dbm.tolist()) == sorted(newest)
+    np.testing.assert_array_equal(ring.distance_m - ring.rssi_dbm, 1000.0)
+    assert sorted(ring.tx_sysid.tolist()) == [2, 2, 2, 3, 3]
