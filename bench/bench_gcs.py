@@ -1,11 +1,14 @@
-"""Benchmark (not a test): GCS estimation pipeline compute per 0.25 s update, and the
-Monte-Carlo sweep behind the estimator choice.
+"""Benchmark (not a test): GCS pipeline compute per 0.25 s update, and the Monte-Carlo sweep
+behind the estimator choice.
 
 Default: compute per update (p50/p99/max) with 16, 32 and 64 benign aircraft + 1 spoofer
 (``--aircraft``), 120 s of seeded synthetic traffic (``ridsafe/gcs/synthetic``, the sim radio's
 model at 1 dB), random broadcast phases and the worst case of all phases aligned (every
-aircraft's claim in one cycle, as in the lockstep runs). Target p99 <= 2 ms at every size;
-each line prints p99 / target. 32 and 64 aircraft run a third of the seeds.
+aircraft's claim in one cycle, as in the lockstep runs). Each case is timed for the pipeline
+a GCS runs by default (``make_pipeline``: the channel check of ``calibration.enabled: auto``
+around the estimation pipeline, timed from outside its ``step``) and, on the line after it,
+for the estimation pipeline alone (``calibration.enabled: false``). Target p99 <= 2 ms at
+every size; each line prints p99 / target. 32 and 64 aircraft run a third of the seeds.
 
 ``--mc``: per receiver count (4, 8, 16) and start (receivers airborne, or at the default
 scenario's depots), over ``--seeds`` seeds:
@@ -52,6 +55,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from ridsafe.common.config import with_overrides
 from ridsafe.common.messages import RidsafeDetector
+from ridsafe.gcs.calibration.pipeline import make_pipeline
 from ridsafe.gcs.pipeline import EstimationPipeline
 from ridsafe.gcs.pipeline_config import ForcedAlertConfig, PipelineConfig
 from ridsafe.gcs.synthetic.evaluate import RunMetrics, run_pipeline
@@ -112,22 +116,33 @@ def bench_compute(seeds: int, aircraft: list[int]) -> None:
                 _bench_case(n, n_seeds, start, aligned)
 
 
+#: The pipelines timed per case: the GCS's default, then the estimation pipeline alone.
+PIPELINES = (
+    ("default", PipelineConfig()),
+    ("cal. off", with_overrides(PipelineConfig(), {"calibration.enabled": False})),
+)
+
+
 def _bench_case(n: int, seeds: int, start: str, aligned: bool) -> None:
-    samples: list[float] = []
-    per_run: list[float] = []
-    collections = _FullCollections()
-    for seed in range(seeds):
-        scene = Scene(seed=seed, n_receivers=n, start=start, aligned_phases=aligned)  # type: ignore[arg-type]
-        compute = run_pipeline(make_traffic(scene), PipelineConfig()).compute_s
-        samples += compute
-        per_run.append(float(np.percentile(compute, 99)))
-    phases = "aligned phases" if aligned else "random phases "
-    p99_ms = float(np.percentile(samples, 99)) * 1e3
-    print(
-        f"{n:2d} aircraft + spoofer, {start:8s}, {phases}: {_percentiles(samples)}; "
-        f"p99 / target {p99_ms / TARGET_P99_MS:.2f}; median of per-run p99 "
-        f"{np.median(per_run) * 1e3:.3f} ms; {collections.close()}"
-    )
+    scenes = [
+        Scene(seed=seed, n_receivers=n, start=start, aligned_phases=aligned)  # type: ignore[arg-type]
+        for seed in range(seeds)
+    ]
+    for name, config in PIPELINES:
+        samples: list[float] = []
+        per_run: list[float] = []
+        collections = _FullCollections()
+        for scene in scenes:
+            compute = run_pipeline(make_traffic(scene), config, make=make_pipeline).compute_s
+            samples += compute
+            per_run.append(float(np.percentile(compute, 99)))
+        phases = "aligned phases" if aligned else "random phases "
+        p99_ms = float(np.percentile(samples, 99)) * 1e3
+        print(
+            f"{n:2d} aircraft + spoofer, {start:8s}, {phases}, {name:8s}: "
+            f"{_percentiles(samples)}; p99 / target {p99_ms / TARGET_P99_MS:.2f}; median of "
+            f"per-run p99 {np.median(per_run) * 1e3:.3f} ms; {collections.close()}"
+        )
 
 
 def _auc(scores_pos: list[float], scores_neg: list[float]) -> float:
