@@ -15,11 +15,13 @@ from __future__ import annotations
 
 import dataclasses
 from collections import Counter
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ridsafe.gcs.calibration.config import CalibrationConfig
+from ridsafe.gcs.calibration.cooperative_kernels import update_and_match
 from ridsafe.gcs.pipeline_api import ObservedClaim
 
 FloatArray = NDArray[np.float64]
@@ -94,47 +96,78 @@ def _airborne(claim: ObservedClaim, min_height_m: float) -> ObservedClaim:
 
 
 class _ReceiverPositions:
-    """Each receiver's newest own reported position (ENU m) and its time (s), as arrays
-    sorted by system id, so one claim's receivers update and one claim's match are a few
-    vector operations whatever the fleet's size."""
+    """Each receiver's newest own reported position (ENU m) and its time (s), one row per
+    receiver in the order first heard, found through a table indexed by system id. A
+    cycle's claims update and are matched against them in one compiled call
+    (``cooperative_kernels.update_and_match``)."""
 
     def __init__(self) -> None:
+        self._row_of = np.full(256, -1, dtype=np.intp)  # by system id; -1: not heard yet
         self.sysid = np.zeros(0, dtype=np.int64)
         self.t_s = np.zeros(0)
         self.p_enu_m = np.zeros((0, 3))
 
-    def update(
-        self, sysid: NDArray[np.int64], t_s: FloatArray, p_enu_m: FloatArray
-    ) -> NDArray[np.intp]:
-        """Take the newer of each receiver's positions; return the receivers' rows."""
-        rows = self._rows(sysid)
-        newer = t_s >= self.t_s[rows]
-        self.t_s[rows[newer]] = t_s[newer]
-        self.p_enu_m[rows[newer]] = p_enu_m[newer]
-        return rows
+    def update_and_match(
+        self, claims: Sequence[ObservedClaim], match_age_s: float, match_m: float
+    ) -> list[int | None]:
+        """Each claim in order: its receivers take the newer of their positions, then the
+        system id of the one receiver whose own position the claim is at (``match_m``, within
+        ``match_age_s``), which did not hear it (nobody hears itself); None when none or
+        several."""
+        bounds = np.zeros(len(claims) + 1, dtype=np.int64)
+        np.cumsum([c.rx_sysid.shape[0] for c in claims], out=bounds[1:])
+        rows = self._rows(np.concatenate([c.rx_sysid for c in claims]))
+        found = update_and_match(
+            rows,
+            np.concatenate([c.rx_t_s for c in claims]),
+            np.concatenate([c.rx_p_enu_m for c in claims]),
+            bounds,
+            np.array([c.t_s for c in claims]),
+            np.stack([c.claimed_p_enu_m for c in claims]).astype(np.float64, copy=False),
+            self.t_s,
+            self.p_enu_m,
+            float(match_age_s),
+            float(match_m),
+        )
+        return [None if row < 0 else int(self.sysid[row]) for row in found.tolist()]
 
     def newest(self, sysid: int) -> tuple[float, FloatArray] | None:
-        row = int(np.searchsorted(self.sysid, sysid))
-        if row == self.sysid.shape[0] or self.sysid[row] != sysid:
+        row = int(self._row_of[sysid]) if 0 <= sysid < self._row_of.shape[0] else -1
+        if row < 0:
             return None
         return float(self.t_s[row]), self.p_enu_m[row]
 
     def _rows(self, sysid: NDArray[np.int64]) -> NDArray[np.intp]:
-        rows = np.searchsorted(self.sysid, sysid)
-        known = rows < self.sysid.shape[0]
-        known[known] = self.sysid[rows[known]] == sysid[known]
-        if not bool(known.all()):  # a receiver not seen before: insert it (rare)
-            new = np.unique(sysid[~known])
-            order = np.argsort(np.concatenate([self.sysid, new]), kind="stable")
-            self.sysid = np.concatenate([self.sysid, new])[order]
-            self.t_s = np.concatenate([self.t_s, np.full(new.shape[0], -np.inf)])[order]
-            self.p_enu_m = np.concatenate([self.p_enu_m, np.zeros((new.shape[0], 3))])[order]
-            rows = np.searchsorted(self.sysid, sysid)
+        if sysid.shape[0] and int(sysid.max()) >= self._row_of.shape[0]:
+            grown = np.full(int(sysid.max()) + 1, -1, dtype=np.intp)
+            grown[: self._row_of.shape[0]] = self._row_of
+            self._row_of = grown
+        rows: NDArray[np.intp] = self._row_of[sysid]
+        if bool((rows < 0).any()):  # a receiver not heard before: add its row (rare)
+            new = np.unique(sysid[rows < 0])
+            self._row_of[new] = self.sysid.shape[0] + np.arange(new.shape[0])
+            self.sysid = np.concatenate([self.sysid, new])
+            self.t_s = np.concatenate([self.t_s, np.full(new.shape[0], -np.inf)])
+            self.p_enu_m = np.concatenate([self.p_enu_m, np.zeros((new.shape[0], 3))])
+            rows = self._row_of[sysid]
         return rows
 
 
 class CooperativeLabeller:
     """Learns serial -> receiver system id from positions and collects labelled receptions."""
+
+    _warm = False
+
+    @classmethod
+    def ensure_warm(cls) -> None:
+        """Load (or compile) the kernel once per process, before a run's first cycle."""
+        if not cls._warm:
+            rx = np.array([[0.0, 0.0, 50.0], [400.0, 0.0, 80.0]])
+            claim = ObservedClaim(
+                "warm-up", 0.0, rx[0], None, np.array([2]), rx[1:], np.zeros(1), np.zeros(1)
+            )
+            _ReceiverPositions().update_and_match([claim], 1.0, 10.0)
+            cls._warm = True
 
     def __init__(self, cfg: CalibrationConfig) -> None:
         self.cfg = cfg
@@ -169,17 +202,23 @@ class CooperativeLabeller:
 
     def observe(self, claim: ObservedClaim) -> None:
         """Learn from one claim: receivers' own positions, a match vote, maybe samples."""
-        heard_by = self._receivers.update(claim.rx_sysid, claim.rx_t_s, claim.rx_p_enu_m)
-        if not self.learning and self.label_of(claim.uas_id) is not None:
+        self.observe_all([claim])
+
+    def observe_all(self, claims: Sequence[ObservedClaim]) -> None:
+        """``observe`` each claim in order (one compiled call for their receivers and
+        matches)."""
+        if not claims:
             return
-        match = self._match(claim, heard_by)
-        if match is None:
-            return
-        self._vote(claim.uas_id, match)
-        if self.label_of(claim.uas_id) == match:
-            claim = _airborne(claim, self.cfg.min_receiver_height_m)
-            distance = np.linalg.norm(claim.rx_p_enu_m - claim.claimed_p_enu_m, axis=1)
-            self.samples.add(match, claim.rx_sysid, distance, claim.rssi_dbm)
+        cfg = self.cfg
+        matches = self._receivers.update_and_match(claims, cfg.match_age_s, cfg.match_m)
+        for claim, match in zip(claims, matches, strict=True):
+            if match is None or (not self.learning and self.label_of(claim.uas_id) is not None):
+                continue
+            self._vote(claim.uas_id, match)
+            if self.label_of(claim.uas_id) == match:
+                up = _airborne(claim, cfg.min_receiver_height_m)
+                distance = np.linalg.norm(up.rx_p_enu_m - up.claimed_p_enu_m, axis=1)
+                self.samples.add(match, up.rx_sysid, distance, up.rssi_dbm)
 
     def vouches(self, claim: ObservedClaim) -> bool:
         """Is ``claim`` a labelled cooperative aircraft's, claiming where that aircraft last
@@ -192,13 +231,3 @@ class CooperativeLabeller:
             return False
         offset = seen[1] - claim.claimed_p_enu_m
         return float(offset @ offset) <= self.cfg.vouch_m**2
-
-    def _match(self, claim: ObservedClaim, heard_by: NDArray[np.intp]) -> int | None:
-        """The one receiver whose own position the claim is at; ``heard_by``: the rows of
-        the receivers that heard it (nobody hears itself)."""
-        r = self._receivers
-        candidate = np.abs(r.t_s - claim.t_s) <= self.cfg.match_age_s
-        candidate[heard_by] = False
-        candidate &= np.sum((r.p_enu_m - claim.claimed_p_enu_m) ** 2, axis=1) <= self.cfg.match_m**2
-        found = r.sysid[candidate]
-        return int(found[0]) if found.shape[0] == 1 else None

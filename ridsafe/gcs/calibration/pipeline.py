@@ -105,6 +105,7 @@ class CalibratingPipeline:
 
     def __init__(self, config: PipelineConfig) -> None:
         EstimationPipeline.ensure_warm()  # the inner pipeline comes mid-run
+        CooperativeLabeller.ensure_warm()
         self.config = config
         self.labeller = CooperativeLabeller(config.calibration)
         self.review = CalibratedReview(config.calibration, self.labeller)
@@ -124,8 +125,7 @@ class CalibratingPipeline:
         return self.inner is not None and self.estimate is None
 
     def step(self, now_s: float, claims: Sequence[ObservedClaim]) -> CycleOutput:
-        for claim in claims:
-            self.labeller.observe(claim)
+        self.labeller.observe_all(claims)
         if self.inner is None:
             self._hold(claims)
             if not self._start(now_s):
