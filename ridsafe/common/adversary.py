@@ -277,7 +277,9 @@ class SpooferConfig:
             check_finite_vector("goal_enu_m", self.goal_enu_m, AREA_LIMIT_M, " m")
             if not 0.0 < self.speed_m_s <= 8.0:
                 raise FieldValueError(
-                    "speed_m_s", f"expected 0 < speed <= 8 m/s, got {self.speed_m_s}"
+                    "speed_m_s",
+                    f"expected 0 < speed <= 8 m/s, got {self.speed_m_s} (a spoofer that "
+                    "hovers: goal_enu_m = start_enu_m)",
                 )
             if self.start_enu_m[2] < 5.0:
                 raise FieldValueError("start_enu_m[2]", "the spoofer starts airborne: z >= 5 m")

@@ -9,7 +9,8 @@ import pytest
 
 from ridsafe.common.adversary import ClaimConfig, MotionConfig, SpooferConfig
 from ridsafe.common.config import from_mapping, load_config, to_mapping
-from ridsafe.common.errors import ConfigError
+from ridsafe.common.errors import ConfigError, FieldValueError
+from ridsafe.sim_backend.spoofer import StraightLineMission
 from ridsafe.tools.run.scenario import ScenarioFile
 
 EXAMPLE = Path(__file__).with_name("adversaries_example.yaml")
@@ -48,6 +49,18 @@ def test_the_single_spoofer_shorthand_is_a_line_with_an_offset() -> None:
         "line", 6.0, start_enu_m=(0.0, 0.0, 60.0), goal_enu_m=(100.0, 0.0, 60.0)
     )
     assert spoofer.resolved_claim == ClaimConfig("offset", offset_enu_m=(5.0, 0.0, 0.0))
+
+
+def test_a_spoofer_that_stands_still_is_a_line_from_its_start_to_itself() -> None:
+    """Speed 0 is refused with the way to say it; start == goal holds the start."""
+    with pytest.raises(FieldValueError, match="hovers: goal_enu_m = start_enu_m"):
+        SpooferConfig("RSAF800000666", (0.0, 0.0, 60.0), (100.0, 0.0, 60.0), 0.0)
+    hover = SpooferConfig("RSAF800000666", (10.0, 20.0, 60.0), (10.0, 20.0, 60.0), 7.0)
+    motion = hover.resolved_motion
+    mission = StraightLineMission(motion.start_enu_m, motion.goal_enu_m, motion.speed_m_s)
+    for t_s in (0.0, 5.0, 100.0):
+        p, v = mission.target(t_s)
+        assert p.tolist() == [10.0, 20.0, 60.0] and v.tolist() == [0.0, 0.0, 0.0]
 
 
 def _with(text: str) -> str:
