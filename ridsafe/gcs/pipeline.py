@@ -15,7 +15,8 @@ since the last cycle, and answers what it decided. Each cycle:
    least even rate that meets every claim's wait: a second's aligned broadcasts of 64
    aircraft run as 17, 17, 17, 14); the claims of suspects (alerted, new, or scoring above
    ``SUSPICION`` of a threshold) and those that waited ``max_claim_wait_s`` always run; the
-   rest wait for the next cycles, oldest first;
+   rest wait for the next cycles, oldest first; a claim that updates a track counts as
+   ``track_claim_cost`` claims, so a cycle with a track update takes fewer waiting ones;
 1. every claim (in time order) goes through its claimed transmitter's detectors
    (a ``TransmitterMonitor`` per uas_id heard, benign ones too; all of a cycle's claims in
    one batch, ``detection.monitor.observe_batch``) -> ``DetectorResult``s;
@@ -252,7 +253,8 @@ class EstimationPipeline:
             arrived_s, claim = item
             urgent = arrived_s <= due_s + _EPS_S or self._suspect(claim.uas_id)
             (must if urgent else may).append(item)
-        room = max(0, self._budget(now_s, cycle_s, len(must), may) - len(must))
+        extra = sum(self._track_extra(claim) for _, claim in must)
+        room = max(0, self._budget(now_s, cycle_s, len(must), may) - len(must) - extra)
         self._waiting = may[room:]
         return [claim for _, claim in sorted([*must, *may[:room]], key=_claim_time)]
 
@@ -276,6 +278,10 @@ class EstimationPipeline:
             cycles = 1 + math.floor((arrived_s + wait_s - now_s) / cycle_s + 1e-6)
             need = max(need, math.ceil(queued / max(cycles, 1)))
         return max(limit, need)
+
+    def _track_extra(self, claim: ObservedClaim) -> int:
+        """What a claim costs beyond one claim's detection: its track's update, if any."""
+        return self.config.track_claim_cost - 1 if claim.uas_id in self._tracks else 0
 
     def _suspect(self, uas_id: str) -> bool:
         """Alerted, never tested, or its latest test at ``SUSPICION`` of a threshold."""

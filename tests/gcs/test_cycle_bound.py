@@ -51,11 +51,33 @@ def test_more_claims_than_the_bound_spread_evenly_over_the_wait(
     wait_s: float, per_cycle: list[int]
 ) -> None:
     """12 aligned claims a second against a bound of 1: the least even number per cycle
-    that runs each within ``max_claim_wait_s`` (4 cycles of 0.25 s, or 3)."""
-    runs = _claims_run(PipelineConfig(max_claims_per_cycle=1, max_claim_wait_s=wait_s))
+    that runs each within ``max_claim_wait_s`` (4 cycles of 0.25 s, or 3), the spoofer's
+    track update counted as one claim."""
+    cfg = PipelineConfig(max_claims_per_cycle=1, max_claim_wait_s=wait_s, track_claim_cost=1)
+    runs = _claims_run(cfg)
     first_heard = next(k for k, run in enumerate(runs) if run)
     steady = [len(run) for run in runs[first_heard + 4 :]]
     assert steady == per_cycle * (len(steady) // 4)
+
+
+def test_a_cycle_that_updates_a_track_takes_fewer_waiting_claims() -> None:
+    """The spoofer (alerted at 0 s, tracked) broadcasts in phase with 11 aircraft against a
+    bound of 5: with its update counted as 30 claims its cycle runs it alone and the others
+    spread over the next three (5, 5, 1), the same claims as when it counts as one."""
+    forced = ForcedAlertConfig(enabled=True, uas_id=SPOOFER_ID, time_s=0.0)
+    runs = {
+        cost: _claims_run(
+            PipelineConfig(max_claims_per_cycle=5, forced_alert=forced, track_claim_cost=cost)
+        )
+        for cost in (1, 30)
+    }
+    tracked = [k for k, run in enumerate(runs[30]) if SPOOFER_ID in run][2:]  # once tracked
+    assert tracked and all(runs[30][k] == [SPOOFER_ID] for k in tracked)
+    assert all(len(runs[1][k]) == 5 for k in tracked)  # counted as one: the bound's 5
+    others = [len(run) for k, run in enumerate(runs[30]) if k > tracked[0] and k not in tracked]
+    assert max(others) <= 5  # the 11 benign claims over the next three cycles
+    flat = {cost: sorted(u for run in r[: tracked[-1]] for u in run) for cost, r in runs.items()}
+    assert flat[1] == flat[30]  # the same claims ran by then
 
 
 def test_under_the_bound_nothing_changes() -> None:
@@ -94,3 +116,5 @@ def test_the_bound_is_checked() -> None:
         PipelineConfig(max_claims_per_cycle=-1)
     with pytest.raises(FieldValueError, match="max_claim_wait_s"):
         dataclasses.replace(PipelineConfig(), max_claim_wait_s=0.0)
+    with pytest.raises(FieldValueError, match="track_claim_cost"):
+        PipelineConfig(track_claim_cost=0)
