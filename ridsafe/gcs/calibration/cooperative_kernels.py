@@ -1,8 +1,8 @@
 """Compiled (numba) kernel of the cooperative labeller's per-claim work (``cooperative.py``):
 each claim of a cycle updates its receivers' newest positions, then is matched against them,
-in the claims' order, in one call instead of a dozen numpy calls per claim. The numpy
-reference is ``cooperative._ReceiverPositions``'s ``update`` and ``match``, which the tests
-compare against.
+in the claims' order, in one call instead of a dozen numpy calls per claim.
+``tests/gcs/calibration/test_cooperative.py`` compares it with the rule written out claim by
+claim in numpy.
 """
 
 from __future__ import annotations
