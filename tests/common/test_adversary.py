@@ -57,6 +57,7 @@ def test_a_spoofer_that_stands_still_is_a_line_from_its_start_to_itself() -> Non
         SpooferConfig("RSAF800000666", (0.0, 0.0, 60.0), (100.0, 0.0, 60.0), 0.0)
     hover = SpooferConfig("RSAF800000666", (10.0, 20.0, 60.0), (10.0, 20.0, 60.0), 7.0)
     motion = hover.resolved_motion
+    assert motion.start_enu_m is not None and motion.goal_enu_m is not None
     mission = StraightLineMission(motion.start_enu_m, motion.goal_enu_m, motion.speed_m_s)
     for t_s in (0.0, 5.0, 100.0):
         p, v = mission.target(t_s)
