@@ -1,0 +1,116 @@
+"""Benchmark: the GCS pipeline's cost per update inside a lockstep run, against the same
+claims replayed in a process that runs nothing else.
+
+    python bench/bench_gcs_replay.py [--config configs/paper.yaml] [--aircraft 64]
+                                     [--seed 0] [--duration S] [--repeat 3]
+
+One lockstep run (aware planner, nothing logged) with the GCS's pipeline wrapped: each
+cycle's claims are kept and its ``step`` is timed in the run. Then the same claims go
+through a fresh pipeline of the same configuration ``--repeat`` times in this process, each
+cycle timed; per cycle the median over the repeats. Printed both ways: p50, p90, p99 and
+mean per update, and the ratio. The difference is what the run's other cores cost the GCS:
+the sim and the companions run in the same process between two GCS cycles and leave the
+caches cold. The replay is where to profile the pipeline itself.
+
+Only the pipeline's ``step`` is timed. The GCS's ``compute_ms`` (metric
+``gcs_update_p99_ms``) also counts building the claims (``ingest.close_due``) and sending
+the regions to every peer.
+"""
+
+from __future__ import annotations
+
+import os
+
+# As the ridsafe command line does (ridsafe/tools/cli/entry_point.py): no BLAS worker threads.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import dataclasses  # noqa: E402
+import gc  # noqa: E402
+import logging  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from collections.abc import Sequence  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from ridsafe.common.logsink import NullSink  # noqa: E402
+from ridsafe.gcs.calibration.pipeline import make_pipeline  # noqa: E402
+from ridsafe.gcs.pipeline_api import CycleOutput, GcsPipeline, ObservedClaim  # noqa: E402
+from ridsafe.tools.run.lockstep import build  # noqa: E402
+from ridsafe.tools.run.scenario import REPO_ROOT, load_scenario_file, with_aircraft  # noqa: E402
+
+Cycle = tuple[float, list[ObservedClaim]]
+
+
+class _Recording:
+    """The GCS's pipeline, its claims kept and its ``step`` timed."""
+
+    def __init__(self, inner: GcsPipeline) -> None:
+        self.inner = inner
+        self.cycles: list[Cycle] = []
+        self.step_s: list[float] = []
+
+    def step(self, now_s: float, claims: Sequence[ObservedClaim]) -> CycleOutput:
+        start = time.perf_counter()
+        out = self.inner.step(now_s, claims)
+        self.step_s.append(time.perf_counter() - start)
+        self.cycles.append((now_s, list(claims)))
+        return out
+
+
+def _summary(step_s: np.ndarray) -> str:
+    ms = step_s * 1e3
+    p50, p90, p99 = np.percentile(ms, [50, 90, 99])
+    return f"p50 {p50:.3f} ms  p90 {p90:.3f} ms  p99 {p99:.3f} ms  mean {ms.mean():.3f} ms"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--config", type=Path, default=REPO_ROOT / "configs" / "paper.yaml")
+    parser.add_argument("--aircraft", type=int, default=64)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--duration", type=float, default=120.0)
+    parser.add_argument("--repeat", type=int, default=3, help="replays of the claims")
+    args = parser.parse_args()
+    if args.repeat < 1:
+        parser.error("--repeat: must be >= 1")
+    logging.basicConfig(level=logging.ERROR)
+    loaded = load_scenario_file(args.config)
+    scenario = dataclasses.replace(loaded.scenario, seed=args.seed, duration_s=args.duration)
+    loaded = with_aircraft(dataclasses.replace(loaded, scenario=scenario), args.aircraft)
+
+    run = build(loaded, "aware", NullSink())
+    recording = _Recording(run.gcs.pipeline)
+    run.gcs.pipeline = recording
+    print(f"{args.config.name}, {args.aircraft} aircraft, seed {args.seed}: flying ...", flush=True)
+    while run.t_s < args.duration - 1e-9:
+        run.step()
+    run.finish()
+
+    gc.collect()
+    replays = []
+    for _ in range(args.repeat):
+        pipeline = make_pipeline(loaded.pipeline)
+        step_s = []
+        for now_s, claims in recording.cycles:
+            start = time.perf_counter()
+            pipeline.step(now_s, claims)
+            step_s.append(time.perf_counter() - start)
+        replays.append(step_s)
+    replayed = np.median(np.array(replays), axis=0)
+    in_run = np.asarray(recording.step_s)
+    print(f"  in the run ({len(in_run)} updates): {_summary(in_run)}")
+    print(f"  replayed alone (median of {args.repeat}): {_summary(replayed)}")
+    ratio_p99 = np.percentile(in_run, 99) / np.percentile(replayed, 99)
+    print(
+        f"  in the run / replayed: mean {in_run.mean() / replayed.mean():.2f}, p99 {ratio_p99:.2f}"
+    )
+
+
+if __name__ == "__main__":
+    main()
