@@ -2,7 +2,9 @@
 claims replayed in a process that runs nothing else.
 
     python bench/bench_gcs_replay.py [--config configs/paper.yaml] [--aircraft 64]
-                                     [--seed 0] [--duration S] [--repeat 3]
+                                     [--seed 0] [--duration S] [--repeat 3] [--set KEY=VALUE]
+
+(``--set pipeline.track_claim_cost=1``: the work bound before a track update weighed more.)
 
 One lockstep run (aware planner, nothing logged) with the GCS's pipeline wrapped: each
 cycle's claims are kept and its ``step`` is timed in the run. Then the same claims go
@@ -38,6 +40,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from ridsafe.common.config import parse_override  # noqa: E402
 from ridsafe.common.logsink import NullSink  # noqa: E402
 from ridsafe.gcs.calibration.pipeline import make_pipeline  # noqa: E402
 from ridsafe.gcs.pipeline_api import CycleOutput, GcsPipeline, ObservedClaim  # noqa: E402
@@ -76,11 +79,15 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--duration", type=float, default=120.0)
     parser.add_argument("--repeat", type=int, default=3, help="replays of the claims")
+    parser.add_argument(
+        "--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+        help="override a config value, as ridsafe run --set",
+    )  # fmt: skip
     args = parser.parse_args()
     if args.repeat < 1:
         parser.error("--repeat: must be >= 1")
     logging.basicConfig(level=logging.ERROR)
-    loaded = load_scenario_file(args.config)
+    loaded = load_scenario_file(args.config, dict(map(parse_override, args.overrides)))
     scenario = dataclasses.replace(loaded.scenario, seed=args.seed, duration_s=args.duration)
     loaded = with_aircraft(dataclasses.replace(loaded, scenario=scenario), args.aircraft)
 
