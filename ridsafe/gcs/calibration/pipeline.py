@@ -53,7 +53,7 @@ from ridsafe.gcs.calibration.channel_fit import (
     fit_channel,
 )
 from ridsafe.gcs.calibration.config import CalibrationConfig
-from ridsafe.gcs.calibration.cooperative import CooperativeLabeller
+from ridsafe.gcs.calibration.cooperative import CooperativeLabeller, airborne_receptions
 from ridsafe.gcs.calibration.review import CalibratedReview
 from ridsafe.gcs.pipeline import EstimationPipeline
 from ridsafe.gcs.pipeline_api import (
@@ -68,23 +68,6 @@ from ridsafe.gcs.pipeline_config import PipelineConfig
 logger = logging.getLogger(__name__)
 
 __all__ = ["CalibratingPipeline", "make_pipeline", "to_free_space"]
-
-
-def airborne_receptions(claim: ObservedClaim, min_height_m: float) -> ObservedClaim:
-    """The claim with only the receptions of receivers at least ``min_height_m`` above the
-    ground (ENU up; flat ground at the origin's height). 0 keeps every reception."""
-    if min_height_m <= 0.0:
-        return claim
-    keep = claim.rx_p_enu_m[:, 2] >= min_height_m
-    if bool(keep.all()):
-        return claim
-    return dataclasses.replace(
-        claim,
-        rx_sysid=claim.rx_sysid[keep],
-        rx_p_enu_m=readonly(claim.rx_p_enu_m[keep]),
-        rx_t_s=readonly(claim.rx_t_s[keep]),
-        rssi_dbm=readonly(claim.rssi_dbm[keep]),
-    )
 
 
 def to_free_space(
@@ -219,17 +202,15 @@ class CalibratingPipeline:
         return self.inner is not None and not self.inner.alerted and not self.inner.tracks
 
     def _check_due(self, now_s: float) -> bool:
-        """``auto`` on the configured channel: every ``refit_s``."""
+        """``refit_s`` since the channel was last checked or fitted (the configured channel
+        checked again, or the fit redone)."""
         refit_s = self.config.calibration.refit_s
         return refit_s > 0.0 and now_s - self._checked_s >= refit_s
 
     def _refit_due(self, now_s: float) -> bool:
         """Every ``refit_s``, while no track runs: a track takes a changed mapping for a
         change of range (its transmit power a slow random walk)."""
-        refit_s = self.config.calibration.refit_s
-        if refit_s <= 0.0 or now_s - self._checked_s < refit_s:
-            return False
-        return self.inner is not None and not self.inner.tracks
+        return self._check_due(now_s) and self.inner is not None and not self.inner.tracks
 
     def _update_inflation(self, now_s: float) -> None:
         """Tracks started from now on localise with the noise the vouched claims show."""

@@ -9,8 +9,8 @@ from scipy.special import chdtrc
 
 from ridsafe.common.messages import RidsafeDetector
 from ridsafe.gcs.calibration.config import CalibrationConfig
-from ridsafe.gcs.calibration.cooperative import CooperativeLabeller
-from ridsafe.gcs.calibration.pipeline import CalibratingPipeline, airborne_receptions
+from ridsafe.gcs.calibration.cooperative import CooperativeLabeller, airborne_receptions
+from ridsafe.gcs.calibration.pipeline import CalibratingPipeline
 from ridsafe.gcs.calibration.review import CalibratedReview, SlidingMax
 from ridsafe.gcs.pipeline import EstimationPipeline
 from ridsafe.gcs.pipeline_api import DetectorResult, ObservedClaim
