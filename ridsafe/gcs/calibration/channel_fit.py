@@ -27,6 +27,7 @@ configured one is then merely conservative.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -59,7 +60,20 @@ class ChannelEstimate:
 
     def bias_of(self, sysids: IntArray) -> FloatArray:
         """``(k,)`` biases of receivers ``sysids`` (0 for a receiver never seen)."""
-        return np.array([self.rx_bias_db.get(int(s), 0.0) for s in sysids], dtype=np.float64)
+        table = self._bias_by_sysid
+        if sysids.size and (sysids.min() < 0 or sysids.max() >= table.shape[0]):
+            return np.array([self.rx_bias_db.get(int(s), 0.0) for s in sysids], dtype=np.float64)
+        return table[sysids]
+
+    @functools.cached_property
+    def _bias_by_sysid(self) -> FloatArray:
+        """``rx_bias_db`` as a table on system id (a MAVLink system id is one byte), 0 where
+        a receiver was never seen: one lookup per claim instead of one per reception."""
+        table = np.zeros(256)
+        for sysid, bias_db in self.rx_bias_db.items():
+            if 0 <= sysid < table.shape[0]:
+                table[sysid] = bias_db
+        return table
 
 
 def fit_channel(

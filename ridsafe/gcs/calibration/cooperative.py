@@ -68,13 +68,49 @@ class LabelledReceptions:
         return 1 + int(n_rx) + int(n_tx)
 
     def add(self, tx: int, rx: NDArray[np.int64], distance_m: FloatArray, rssi: FloatArray) -> None:
-        k = min(rx.shape[0], self.max_samples)
-        rows = (self._next + np.arange(k)) % self.max_samples
-        self._tx[rows] = tx
-        self._rx[rows] = rx[-k:]
-        self._distance_m[rows] = distance_m[-k:]
-        self._rssi_dbm[rows] = rssi[-k:]
-        self._next = (self._next + k) % self.max_samples
+        """One transmitter's receptions (the newest ``max_samples`` of them)."""
+        newest = slice(max(rx.shape[0] - self.max_samples, 0), None)
+        tx_column = np.full(rx[newest].shape[0], tx, dtype=np.int64)
+        self.add_rows(tx_column, rx[newest], distance_m[newest], rssi[newest])
+
+    def add_claims(self, labelled: Sequence[tuple[int, ObservedClaim]]) -> None:
+        """``add`` the receptions of each (transmitter, claim) in order, the distance from
+        each receiver to the claimed position; one write for them all where they fit the
+        buffer (the same rows, in the same order, as one ``add`` per claim)."""
+        if not labelled:
+            return
+        claims = [claim for _, claim in labelled]
+        counts = [claim.n_receivers for claim in claims]
+        if sum(counts) > self.max_samples:
+            for tx, claim in labelled:
+                self.add(tx, claim.rx_sysid, _distances_m(claim), claim.rssi_dbm)
+            return
+        claimed = np.repeat(np.stack([claim.claimed_p_enu_m for claim in claims]), counts, axis=0)
+        offsets = np.concatenate([claim.rx_p_enu_m for claim in claims]) - claimed
+        self.add_rows(
+            np.repeat(np.array([tx for tx, _ in labelled], dtype=np.int64), counts),
+            np.concatenate([claim.rx_sysid for claim in claims]),
+            _row_norms(offsets),
+            np.concatenate([claim.rssi_dbm for claim in claims]),
+        )
+
+    def add_rows(
+        self, tx: NDArray[np.int64], rx: NDArray[np.int64], distance_m: FloatArray, rssi: FloatArray
+    ) -> None:
+        """Receptions as columns, at most ``max_samples`` of them, written in order from the
+        next free row (wrapping)."""
+        k = rx.shape[0]
+        start = self._next
+        first = min(k, self.max_samples - start)
+        for column, values in (
+            (self._tx, tx),
+            (self._rx, rx),
+            (self._distance_m, distance_m),
+            (self._rssi_dbm, rssi),
+        ):
+            column[start : start + first] = values[:first]
+            column[: k - first] = values[first:]
+        self._next = (start + k) % self.max_samples
         self._count = min(self._count + k, self.max_samples)
 
 
@@ -92,6 +128,17 @@ def _airborne(claim: ObservedClaim, min_height_m: float) -> ObservedClaim:
     if min_height_m > 0.0 and claim.claimed_p_enu_m[2] < min_height_m:
         return _receptions(claim, np.zeros(claim.n_receivers, dtype=bool))
     return airborne_receptions(claim, min_height_m)
+
+
+def _distances_m(claim: ObservedClaim) -> FloatArray:
+    """Each receiver's distance to the claimed position (m)."""
+    return _row_norms(claim.rx_p_enu_m - claim.claimed_p_enu_m)
+
+
+def _row_norms(offsets: FloatArray) -> FloatArray:
+    """The length of each row (``np.linalg.norm(offsets, axis=1)``, the same arithmetic)."""
+    norms: FloatArray = np.sqrt(np.add.reduce(offsets * offsets, axis=1))
+    return norms
 
 
 def _receptions(claim: ObservedClaim, keep: NDArray[np.bool_]) -> ObservedClaim:
@@ -221,14 +268,14 @@ class CooperativeLabeller:
             return
         cfg = self.cfg
         matches = self._receivers.update_and_match(claims, cfg.match_age_s, cfg.match_m)
+        labelled: list[tuple[int, ObservedClaim]] = []
         for claim, match in zip(claims, matches, strict=True):
             if match is None or (not self.learning and self.label_of(claim.uas_id) is not None):
                 continue
             self._vote(claim.uas_id, match)
             if self.label_of(claim.uas_id) == match:
-                up = _airborne(claim, cfg.min_receiver_height_m)
-                distance = np.linalg.norm(up.rx_p_enu_m - up.claimed_p_enu_m, axis=1)
-                self.samples.add(match, up.rx_sysid, distance, up.rssi_dbm)
+                labelled.append((match, _airborne(claim, cfg.min_receiver_height_m)))
+        self.samples.add_claims(labelled)
 
     def vouches(self, claim: ObservedClaim) -> bool:
         """Is ``claim`` a labelled cooperative aircraft's, claiming where that aircraft last

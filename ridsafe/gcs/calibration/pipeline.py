@@ -67,7 +67,7 @@ from ridsafe.gcs.pipeline_config import PipelineConfig
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["CalibratingPipeline", "make_pipeline", "to_free_space"]
+__all__ = ["CalibratingPipeline", "make_pipeline", "to_free_space", "to_free_space_all"]
 
 
 def to_free_space(
@@ -75,10 +75,24 @@ def to_free_space(
 ) -> ObservedClaim:
     """The claim with its RSSI mapped onto the free-space model (module docstring), scaled
     about ``pivot_dbm``: rssi' = pivot + (2 / n) (rssi - b_r - pivot)."""
-    scaled = (2.0 / estimate.exponent) * (
-        claim.rssi_dbm - estimate.bias_of(claim.rx_sysid) - pivot_dbm
-    )
-    return dataclasses.replace(claim, rssi_dbm=readonly(scaled + pivot_dbm))
+    return to_free_space_all([claim], estimate, pivot_dbm)[0]
+
+
+def to_free_space_all(
+    claims: Sequence[ObservedClaim], estimate: ChannelEstimate, pivot_dbm: float = 0.0
+) -> list[ObservedClaim]:
+    """``to_free_space`` of each claim, the cycle's receptions mapped in one pass."""
+    if not claims:
+        return []
+    rssi_dbm = np.concatenate([claim.rssi_dbm for claim in claims])
+    rx_sysid = np.concatenate([claim.rx_sysid for claim in claims])
+    scaled = (2.0 / estimate.exponent) * (rssi_dbm - estimate.bias_of(rx_sysid) - pivot_dbm)
+    mapped = readonly(scaled + pivot_dbm)
+    ends = np.cumsum([claim.n_receivers for claim in claims]).tolist()
+    return [
+        dataclasses.replace(claim, rssi_dbm=mapped[end - claim.n_receivers : end])
+        for claim, end in zip(claims, ends, strict=True)
+    ]
 
 
 class CalibratingPipeline:
@@ -130,7 +144,7 @@ class CalibratingPipeline:
         h = self.config.calibration.min_receiver_height_m
         claims = [airborne_receptions(c, h) for c in claims]
         if self.estimate is not None:
-            claims = [to_free_space(c, self.estimate, self._pivot_dbm) for c in claims]
+            claims = to_free_space_all(claims, self.estimate, self._pivot_dbm)
         out = self.inner.step(now_s, claims)
         self._update_inflation(now_s)
         if self._decision is not None:

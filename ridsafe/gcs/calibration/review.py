@@ -41,10 +41,11 @@ the threshold it was taken against change.
 
 from __future__ import annotations
 
+import bisect
 import dataclasses
+import math
 from collections import deque
 
-import numpy as np
 from scipy.special import chdtri
 
 from ridsafe.common.messages import RidsafeDetector
@@ -52,7 +53,36 @@ from ridsafe.gcs.calibration.config import CalibrationConfig
 from ridsafe.gcs.calibration.cooperative import CooperativeLabeller
 from ridsafe.gcs.pipeline_api import DetectorResult, ObservedClaim
 
-__all__ = ["CalibratedReview", "SlidingMax"]
+__all__ = ["CalibratedReview", "SlidingMax", "SlidingMedian"]
+
+
+class SlidingMedian:
+    """The median of the values pushed over the last ``window_s``, kept sorted (a push or an
+    expiry is one bisection; the median is read off the middle, as ``np.median`` gives it:
+    the mean of the two middle values when their number is even). Times must not
+    decrease; a NaN is not kept (it has no place in the order)."""
+
+    def __init__(self, window_s: float) -> None:
+        self.window_s = window_s
+        self._arrivals: deque[tuple[float, float]] = deque()  # (t_s, value), oldest first
+        self._sorted: list[float] = []
+
+    def push(self, t_s: float, value: float) -> None:
+        if math.isnan(value):
+            return
+        self._arrivals.append((t_s, value))
+        bisect.insort(self._sorted, value)
+
+    def value(self, now_s: float) -> float | None:
+        """The median over ``(now_s - window_s, now_s]``; None when nothing is in it."""
+        arrivals, values = self._arrivals, self._sorted
+        while arrivals and arrivals[0][0] <= now_s - self.window_s:
+            del values[bisect.bisect_left(values, arrivals.popleft()[1])]
+        n = len(values)
+        if n == 0:
+            return None
+        middle = n // 2
+        return values[middle] if n % 2 else (values[middle - 1] + values[middle]) / 2.0
 
 
 class SlidingMax:
@@ -96,7 +126,7 @@ class CalibratedReview:
         self._null: dict[RidsafeDetector, SlidingMax] = {}
         self._newest_s = float("-inf")
         self._vouched = 0
-        self._mlat: deque[tuple[float, float]] = deque()  # (t_s, surprisal) of vouched claims
+        self._mlat = SlidingMedian(cfg.null_window_s)  # the vouched claims' MLAT surprisal
 
     def __call__(
         self, claim: ObservedClaim, results: tuple[DetectorResult, ...]
@@ -108,7 +138,7 @@ class CalibratedReview:
                 if self.cfg.empirical_null:
                     self._null_of(r.detector).push(t_s, r.statistic)
                 if self.cfg.honest_covariance and r.detector is RidsafeDetector.MLAT:
-                    self._mlat.append((t_s, r.statistic))
+                    self._mlat.push(t_s, r.statistic)
             return _no_alert(results) if self.cfg.cooperative_veto else results
         if not self.cfg.empirical_null:
             return results
@@ -119,11 +149,10 @@ class CalibratedReview:
     def localisation_inflation(self, now_s: float) -> float:
         """c = median(T) / median(chi2_3) of the vouched claims' MLAT statistics over the
         window (T from the surprisal, rank 3 assumed), at least 1; 1 before any."""
-        while self._mlat and self._mlat[0][0] <= now_s - self.cfg.null_window_s:
-            self._mlat.popleft()
-        if not self._mlat:
+        median = self._mlat.value(now_s)
+        if median is None:
             return 1.0
-        surprisal = float(np.median([s for _, s in self._mlat]))
+        surprisal = float(median)
         statistic = float(chdtri(3, 10.0 ** (-min(surprisal, 300.0))))
         return max(1.0, statistic / _CHI2_3_MEDIAN)
 

@@ -8,10 +8,15 @@ import math
 import numpy as np
 import pytest
 
-from ridsafe.gcs.calibration.channel_fit import fit_channel
+from ridsafe.gcs.calibration.channel_fit import ChannelEstimate, fit_channel
 from ridsafe.gcs.calibration.config import CalibrationConfig
 from ridsafe.gcs.calibration.cooperative import CooperativeLabeller
-from ridsafe.gcs.calibration.pipeline import CalibratingPipeline, make_pipeline, to_free_space
+from ridsafe.gcs.calibration.pipeline import (
+    CalibratingPipeline,
+    make_pipeline,
+    to_free_space,
+    to_free_space_all,
+)
 from ridsafe.gcs.pipeline import EstimationPipeline
 from ridsafe.gcs.pipeline_api import ObservedClaim, readonly
 from ridsafe.gcs.pipeline_config import PipelineConfig
@@ -101,6 +106,41 @@ def test_to_free_space_undoes_exponent_and_bias() -> None:
     assert diff == pytest.approx(
         20 * math.log10(7.0) * 3.0 / est.exponent * (est.exponent / 3.0), abs=0.05
     )
+
+
+def test_a_cycle_is_mapped_as_its_claims_one_by_one() -> None:
+    """Mapped together, each claim gets the formula's values for its own receptions: a bias
+    per receiver (0 for one never fitted, system ids beyond a byte included), exponent and
+    pivot as given."""
+    rng = np.random.default_rng(3)
+    biases = {int(s): float(rng.normal(0.0, 3.0)) for s in rng.choice(np.arange(1, 300), 40)}
+    est = ChannelEstimate(2.7, 0.1, biases, {}, 3.0, 2.5, 1000)
+    claims = []
+    for k in range(30):
+        n = int(rng.integers(0, 8))
+        high = 300 if k % 10 == 0 else 256  # every tenth with ids no byte holds
+        claims.append(
+            ObservedClaim(
+                f"RID{k}",
+                0.0,
+                readonly(np.zeros(3)),
+                None,
+                rng.integers(1, high, n).astype(np.int64),
+                readonly(rng.normal(0.0, 300.0, (n, 3))),
+                readonly(np.zeros(n)),
+                readonly(rng.normal(-70.0, 10.0, n)),
+            )
+        )
+    mapped = to_free_space_all(claims, est, -45.0)
+    assert len(mapped) == len(claims)
+    for claim, out in zip(claims, mapped, strict=True):
+        bias = np.array([biases.get(int(s), 0.0) for s in claim.rx_sysid])
+        expected = (2.0 / 2.7) * (claim.rssi_dbm - bias - (-45.0)) + (-45.0)
+        assert np.array_equal(out.rssi_dbm, expected)
+        assert not out.rssi_dbm.flags.writeable
+        assert out.rx_sysid is claim.rx_sysid and out.uas_id == claim.uas_id
+        assert np.array_equal(to_free_space(claim, est, -45.0).rssi_dbm, expected)
+    assert to_free_space_all([], est) == []
 
 
 def test_make_pipeline_honours_the_enable_flag() -> None:

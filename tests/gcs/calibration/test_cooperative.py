@@ -4,9 +4,10 @@ claim: a cycle's claims give the same matches whether they come one at a time or
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from ridsafe.gcs.calibration.config import CalibrationConfig
-from ridsafe.gcs.calibration.cooperative import CooperativeLabeller
+from ridsafe.gcs.calibration.cooperative import CooperativeLabeller, LabelledReceptions
 from ridsafe.gcs.pipeline_api import ObservedClaim, readonly
 
 CFG = CalibrationConfig(enabled=True, match_m=10.0, match_age_s=1.0)
@@ -81,3 +82,24 @@ def test_a_cycle_matches_as_its_claims_one_by_one() -> None:
     unique_labels = CooperativeLabeller(CFG)
     unique_labels.observe_all(all_claims)
     assert unique_labels.labels() == one_by_one.labels()
+
+
+@pytest.mark.parametrize("max_samples", [50, 700, 5000])
+def test_a_cycle_adds_the_rows_one_add_per_claim_would(max_samples: int) -> None:
+    """The batched write against one ``add`` per claim with the distances written out: the
+    same columns row by row, wrapping around the ring (50: a cycle larger than the ring)."""
+    rng = np.random.default_rng(2)
+    batched, one_by_one = LabelledReceptions(max_samples), LabelledReceptions(max_samples)
+    added = 0
+    for cycle in range(12):
+        claims = _random_cycle(rng, 24, 0.25 * cycle)
+        labelled = [(int(k) + 1, claim) for k, claim in enumerate(claims) if k % 3]
+        batched.add_claims(labelled)
+        added += sum(claim.n_receivers for _, claim in labelled)
+        for tx, claim in labelled:
+            distance = np.linalg.norm(claim.rx_p_enu_m - claim.claimed_p_enu_m, axis=1)
+            one_by_one.add(tx, claim.rx_sysid, distance, claim.rssi_dbm)
+        for column in ("tx_sysid", "rx_sysid", "distance_m", "rssi_dbm"):
+            assert np.array_equal(getattr(batched, column), getattr(one_by_one, column))
+        assert len(batched) == len(one_by_one)
+    assert (added > max_samples) == (max_samples < 5000)  # wrapped, or never full

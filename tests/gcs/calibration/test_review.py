@@ -11,7 +11,7 @@ from ridsafe.common.messages import RidsafeDetector
 from ridsafe.gcs.calibration.config import CalibrationConfig
 from ridsafe.gcs.calibration.cooperative import CooperativeLabeller, airborne_receptions
 from ridsafe.gcs.calibration.pipeline import CalibratingPipeline
-from ridsafe.gcs.calibration.review import CalibratedReview, SlidingMax
+from ridsafe.gcs.calibration.review import CalibratedReview, SlidingMax, SlidingMedian
 from ridsafe.gcs.pipeline import EstimationPipeline
 from ridsafe.gcs.pipeline_api import DetectorResult, ObservedClaim
 from ridsafe.gcs.pipeline_config import PipelineConfig
@@ -51,6 +51,23 @@ def test_sliding_max_matches_brute_force() -> None:
         expected = max(x for s, x in pushed if s > t - 3.0)
         assert window.value(float(t)) == expected
     assert SlidingMax(1.0).value(0.0) == 0.0
+
+
+def test_sliding_median_is_numpys_median_of_the_window() -> None:
+    rng = np.random.default_rng(1)
+    window = SlidingMedian(3.0)
+    pushed: list[tuple[float, float]] = []
+    counts = set()
+    for t in np.cumsum(rng.uniform(0.0, 0.5, 400)):
+        for _ in range(int(rng.integers(0, 3))):  # several at one time, repeats, a NaN
+            v = float(rng.choice([rng.normal(), 0.5, np.nan], p=[0.8, 0.15, 0.05]))
+            window.push(float(t), v)
+            pushed.append((float(t), v))
+        inside = [x for s, x in pushed if s > t - 3.0 and not np.isnan(x)]
+        counts.add(len(inside) % 2)
+        got = window.value(float(t))
+        assert got == (float(np.median(inside)) if inside else None)
+    assert counts == {0, 1}  # both the middle value and the mean of the two middle ones
 
 
 def test_labeller_vouches_only_for_claims_where_the_aircraft_is() -> None:
