@@ -65,6 +65,7 @@ from ridsafe.gcs.pipeline_api import (
     ObservedClaim,
     TrackEstimate,
     UnsafeRegion,
+    airborne_receptions,
     readonly,
 )
 from ridsafe.gcs.pipeline_config import PipelineConfig, TrackConfig
@@ -216,7 +217,9 @@ class EstimationPipeline:
             changes.extend(self._maybe_raise(claim.uas_id, claim.t_s, claim_results))
             live = self._tracks.get(claim.uas_id)
             if live is not None:
-                live.update(claim)
+                heard_up = self._for_tracks(claim)
+                if heard_up.n_receivers:
+                    live.update(heard_up)
         changes.extend(self._forced(now_s))
         self._initiate_tracks()
         deleted, cleared = self._delete_silent(now_s)
@@ -372,11 +375,16 @@ class EstimationPipeline:
                 continue
             tried = heard.tried_init_at_s
             heard.tried_init_at_s = heard.recent[-1].t_s
-            track = initiate(uas_id, self._next_track_id, list(heard.recent), self.config, tried)
+            history = [self._for_tracks(claim) for claim in heard.recent]
+            track = initiate(uas_id, self._next_track_id, history, self.config, tried)
             if track is not None:
                 self._tracks[uas_id] = track
                 self._next_track_id += 1
                 logger.info("track %d started on %s", track.track_id, uas_id)
+
+    def _for_tracks(self, claim: ObservedClaim) -> ObservedClaim:
+        """The claim's receptions a track uses (``tracks.min_receiver_height_m``)."""
+        return airborne_receptions(claim, self.config.tracks.min_receiver_height_m)
 
     def _delete_silent(self, now_s: float) -> tuple[list[str], list[AlertChange]]:
         timeout = self.config.tracks.silence_timeout_s

@@ -17,6 +17,7 @@ the same axes, times in sim seconds, powers in dBm.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -65,6 +66,26 @@ class ObservedClaim:
     @property
     def n_receivers(self) -> int:
         return int(self.rx_sysid.shape[0])
+
+
+def receptions(claim: ObservedClaim, keep: NDArray[np.bool_]) -> ObservedClaim:
+    """The claim with only the receptions ``keep``."""
+    return dataclasses.replace(
+        claim,
+        rx_sysid=claim.rx_sysid[keep],
+        rx_p_enu_m=readonly(claim.rx_p_enu_m[keep]),
+        rx_t_s=readonly(claim.rx_t_s[keep]),
+        rssi_dbm=readonly(claim.rssi_dbm[keep]),
+    )
+
+
+def airborne_receptions(claim: ObservedClaim, min_height_m: float) -> ObservedClaim:
+    """The claim with only the receptions of receivers at least ``min_height_m`` above the
+    ground (ENU up; flat ground at the origin's height). 0 keeps every reception."""
+    if min_height_m <= 0.0:
+        return claim
+    keep = claim.rx_p_enu_m[:, 2] >= min_height_m
+    return claim if bool(keep.all()) else receptions(claim, keep)
 
 
 @quick_init

@@ -393,6 +393,11 @@ class TrackConfig:
     #: to change instead of for a lucky window; each at most the claims kept
     #: (``max(backfill_s, detection.window_s)``). (2.5,): the paper-era start.
     init_spans_s: tuple[float, ...] = (2.5,)
+    #: Receptions by receivers lower than this (m above the ground) are left out of the
+    #: tracks (their start and updates); the detectors keep them. 0 keeps every reception.
+    #: Aircraft on their pads hear a transmitter through the ground's reflection, and on a
+    #: channel with one their RSSI says little of where it is.
+    min_receiver_height_m: float = 0.0
     #: A single-hypothesis RSSI_IMM's altitude std: U(0, 120 m), the small-UAS legal band,
     #: moment-matched (120 / sqrt(12)).
     altitude_prior_std_m: float = 34.6
@@ -411,6 +416,7 @@ class TrackConfig:
                 "init_spans_s", f"expected one or more spans > 0 s, ascending, got {list(spans)}"
             )
         check_non_negative("coast_max_radius_m", self.coast_max_radius_m)
+        check_non_negative("min_receiver_height_m", self.min_receiver_height_m)
         for name in (
             "silence_timeout_s",
             "altitude_prior_std_m",

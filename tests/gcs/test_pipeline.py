@@ -4,6 +4,7 @@ consistency of the default one (containment near 1 - alpha)."""
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Literal
 
 import numpy as np
@@ -11,6 +12,7 @@ import pytest
 from scipy import stats
 
 from ridsafe.common.messages import AlertState, RidsafeDetector
+from ridsafe.common.pathloss import received_power_dbm
 from ridsafe.gcs.pipeline import EstimationPipeline
 from ridsafe.gcs.pipeline_api import CycleOutput, GcsPipeline, ObservedClaim, readonly
 from ridsafe.gcs.pipeline_config import ForcedAlertConfig, PipelineConfig
@@ -157,3 +159,56 @@ def test_non_finite_transmissions_are_ignored() -> None:
         readonly(rssi),
     )
     assert EstimationPipeline().step(1.0, [bad]) == CycleOutput()
+
+
+def _with_grounded_receivers(traffic: Traffic, rng: np.random.Generator) -> Traffic:
+    """The spoofer's claims also heard by 4 receivers on the ground (0 m up) whose RSSI is
+    20 dB short of free space (a ground reflection's loss)."""
+    grounded = np.column_stack((rng.uniform(-400, 400, (4, 2)), np.zeros(4)))
+    cycles: dict[float, list[ObservedClaim]] = {}
+    for t, claims in traffic.cycles.items():
+        out = []
+        for heard in claims:
+            claim = heard
+            if claim.uas_id == SPOOFER_ID:
+                true = traffic.spoofer_path.at(claim.t_s)[0]
+                d = np.maximum(np.linalg.norm(grounded - true, axis=1), 1.0)
+                rssi = received_power_dbm(20.0, d) - 20.0
+                claim = ObservedClaim(
+                    claim.uas_id,
+                    claim.rid_timestamp_s,
+                    claim.claimed_p_enu_m,
+                    claim.claimed_v_enu_m_s,
+                    np.concatenate([claim.rx_sysid, np.arange(101, 105, dtype=np.int64)]),
+                    readonly(np.vstack([claim.rx_p_enu_m, grounded])),
+                    readonly(np.concatenate([claim.rx_t_s, np.full(4, claim.t_s)])),
+                    readonly(np.concatenate([claim.rssi_dbm, rssi])),
+                )
+            out.append(claim)
+        cycles[t] = out
+    return Traffic(traffic.scene, traffic.paths, traffic.ids, cycles, traffic.claim_path)
+
+
+def test_tracks_may_leave_out_receivers_on_the_ground_the_detectors_keep() -> None:
+    traffic = _with_grounded_receivers(
+        make_traffic(Scene(seed=5, n_receivers=10, duration_s=40.0)), np.random.default_rng(6)
+    )
+    errors, statistics = {}, {}
+    for height in (0.0, 15.0):
+        cfg = PipelineConfig()
+        cfg = dataclasses.replace(
+            cfg, tracks=dataclasses.replace(cfg.tracks, min_receiver_height_m=height)
+        )
+        cycles = _run(traffic, cfg)
+        statistics[height] = [
+            (r.detector, r.statistic) for _, out in cycles for r in out.detector_results
+        ]
+        errors[height] = np.median(
+            [
+                np.linalg.norm(track.p_enu_m[:2] - traffic.spoofer_path.at(t)[0, :2])
+                for t, out in cycles
+                for track in out.tracks
+            ]
+        )
+    assert statistics[0.0] == statistics[15.0]  # the detectors heard the same
+    assert errors[15.0] < 30.0 < errors[0.0]

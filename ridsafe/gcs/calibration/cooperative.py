@@ -13,7 +13,6 @@ the fit it would have to claim a benign aircraft's true position, and then it is
 
 from __future__ import annotations
 
-import dataclasses
 from collections import Counter
 from collections.abc import Sequence
 
@@ -22,11 +21,11 @@ from numpy.typing import NDArray
 
 from ridsafe.gcs.calibration.config import CalibrationConfig
 from ridsafe.gcs.calibration.cooperative_kernels import update_and_match
-from ridsafe.gcs.pipeline_api import ObservedClaim, readonly
+from ridsafe.gcs.pipeline_api import ObservedClaim, airborne_receptions, receptions
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["CooperativeLabeller", "LabelledReceptions", "airborne_receptions"]
+__all__ = ["CooperativeLabeller", "LabelledReceptions"]
 
 
 class LabelledReceptions:
@@ -114,19 +113,10 @@ class LabelledReceptions:
         self._count = min(self._count + k, self.max_samples)
 
 
-def airborne_receptions(claim: ObservedClaim, min_height_m: float) -> ObservedClaim:
-    """The claim with only the receptions of receivers at least ``min_height_m`` above the
-    ground (ENU up; flat ground at the origin's height). 0 keeps every reception."""
-    if min_height_m <= 0.0:
-        return claim
-    keep = claim.rx_p_enu_m[:, 2] >= min_height_m
-    return claim if bool(keep.all()) else _receptions(claim, keep)
-
-
 def _airborne(claim: ObservedClaim, min_height_m: float) -> ObservedClaim:
     """Only receptions with both ends at least ``min_height_m`` up (all when 0 or none)."""
     if min_height_m > 0.0 and claim.claimed_p_enu_m[2] < min_height_m:
-        return _receptions(claim, np.zeros(claim.n_receivers, dtype=bool))
+        return receptions(claim, np.zeros(claim.n_receivers, dtype=bool))
     return airborne_receptions(claim, min_height_m)
 
 
@@ -139,17 +129,6 @@ def _row_norms(offsets: FloatArray) -> FloatArray:
     """The length of each row (``np.linalg.norm(offsets, axis=1)``, the same arithmetic)."""
     norms: FloatArray = np.sqrt(np.add.reduce(offsets * offsets, axis=1))
     return norms
-
-
-def _receptions(claim: ObservedClaim, keep: NDArray[np.bool_]) -> ObservedClaim:
-    """The claim with only the receptions ``keep``."""
-    return dataclasses.replace(
-        claim,
-        rx_sysid=claim.rx_sysid[keep],
-        rx_p_enu_m=readonly(claim.rx_p_enu_m[keep]),
-        rx_t_s=readonly(claim.rx_t_s[keep]),
-        rssi_dbm=readonly(claim.rssi_dbm[keep]),
-    )
 
 
 class _ReceiverPositions:

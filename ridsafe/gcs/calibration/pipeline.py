@@ -53,7 +53,7 @@ from ridsafe.gcs.calibration.channel_fit import (
     fit_channel,
 )
 from ridsafe.gcs.calibration.config import CalibrationConfig
-from ridsafe.gcs.calibration.cooperative import CooperativeLabeller, airborne_receptions
+from ridsafe.gcs.calibration.cooperative import CooperativeLabeller
 from ridsafe.gcs.calibration.review import CalibratedReview
 from ridsafe.gcs.pipeline import EstimationPipeline
 from ridsafe.gcs.pipeline_api import (
@@ -61,6 +61,7 @@ from ridsafe.gcs.pipeline_api import (
     CycleOutput,
     GcsPipeline,
     ObservedClaim,
+    airborne_receptions,
     readonly,
 )
 from ridsafe.gcs.pipeline_config import PipelineConfig

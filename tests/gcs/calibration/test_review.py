@@ -9,11 +9,11 @@ from scipy.special import chdtrc
 
 from ridsafe.common.messages import RidsafeDetector
 from ridsafe.gcs.calibration.config import CalibrationConfig
-from ridsafe.gcs.calibration.cooperative import CooperativeLabeller, airborne_receptions
+from ridsafe.gcs.calibration.cooperative import CooperativeLabeller
 from ridsafe.gcs.calibration.pipeline import CalibratingPipeline
 from ridsafe.gcs.calibration.review import CalibratedReview, SlidingMax, SlidingMedian
 from ridsafe.gcs.pipeline import EstimationPipeline
-from ridsafe.gcs.pipeline_api import DetectorResult, ObservedClaim
+from ridsafe.gcs.pipeline_api import DetectorResult, ObservedClaim, airborne_receptions
 from ridsafe.gcs.pipeline_config import PipelineConfig
 from ridsafe.gcs.synthetic.traffic import CYCLE_S, SPOOFER_ID, Scene, make_traffic
 from tests.gcs.claims import free_space_claim
