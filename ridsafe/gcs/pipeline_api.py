@@ -68,6 +68,14 @@ class ObservedClaim:
         return int(self.rx_sysid.shape[0])
 
 
+def reception_bounds(claims: Sequence[ObservedClaim]) -> NDArray[np.int64]:
+    """Where each claim's receptions lie once the claims' are stacked in order: claim j's
+    are rows ``bounds[j]:bounds[j + 1]`` of ``(len(claims) + 1,)`` bounds."""
+    bounds = np.zeros(len(claims) + 1, dtype=np.int64)
+    np.cumsum([claim.n_receivers for claim in claims], out=bounds[1:])
+    return bounds
+
+
 def receptions(claim: ObservedClaim, keep: NDArray[np.bool_]) -> ObservedClaim:
     """The claim with only the receptions ``keep``."""
     return dataclasses.replace(

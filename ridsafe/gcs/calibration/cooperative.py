@@ -21,7 +21,12 @@ from numpy.typing import NDArray
 
 from ridsafe.gcs.calibration.config import CalibrationConfig
 from ridsafe.gcs.calibration.cooperative_kernels import update_and_match
-from ridsafe.gcs.pipeline_api import ObservedClaim, airborne_receptions, receptions
+from ridsafe.gcs.pipeline_api import (
+    ObservedClaim,
+    airborne_receptions,
+    reception_bounds,
+    receptions,
+)
 
 FloatArray = NDArray[np.float64]
 
@@ -150,8 +155,7 @@ class _ReceiverPositions:
         system id of the one receiver whose own position the claim is at (``match_m``, within
         ``match_age_s``), which did not hear it (nobody hears itself); None when none or
         several."""
-        bounds = np.zeros(len(claims) + 1, dtype=np.int64)
-        np.cumsum([c.rx_sysid.shape[0] for c in claims], out=bounds[1:])
+        bounds = reception_bounds(claims)
         rows = self._rows(np.concatenate([c.rx_sysid for c in claims]))
         found = update_and_match(
             rows,

@@ -63,6 +63,7 @@ from ridsafe.gcs.pipeline_api import (
     ObservedClaim,
     airborne_receptions,
     readonly,
+    reception_bounds,
 )
 from ridsafe.gcs.pipeline_config import PipelineConfig
 
@@ -89,10 +90,10 @@ def to_free_space_all(
     rx_sysid = np.concatenate([claim.rx_sysid for claim in claims])
     scaled = (2.0 / estimate.exponent) * (rssi_dbm - estimate.bias_of(rx_sysid) - pivot_dbm)
     mapped = readonly(scaled + pivot_dbm)
-    ends = np.cumsum([claim.n_receivers for claim in claims]).tolist()
+    bounds = reception_bounds(claims).tolist()
     return [
-        dataclasses.replace(claim, rssi_dbm=mapped[end - claim.n_receivers : end])
-        for claim, end in zip(claims, ends, strict=True)
+        dataclasses.replace(claim, rssi_dbm=mapped[bounds[j] : bounds[j + 1]])
+        for j, claim in enumerate(claims)
     ]
 
 

@@ -54,7 +54,7 @@ from ridsafe.common.messages import RidsafeDetector
 from ridsafe.common.pathloss import DB_PER_LN
 from ridsafe.gcs.detection.rssi_consistency_kernels import observe_batch_kernel, observe_params
 from ridsafe.gcs.detection.rssi_state import RING, RssiStatePool
-from ridsafe.gcs.pipeline_api import DetectorResult, ObservedClaim
+from ridsafe.gcs.pipeline_api import DetectorResult, ObservedClaim, reception_bounds
 from ridsafe.gcs.pipeline_config import DetectionConfig, PipelineConfig
 
 FloatArray = NDArray[np.float64]
@@ -333,8 +333,7 @@ def _run_kernel(
     pool: RssiStatePool, rows: list[int], claims: list[ObservedClaim]
 ) -> tuple[FloatArray, NDArray[np.int64], FloatArray]:
     """``observe_batch_kernel`` on ``claims``, claim j on pool row ``rows[j]``."""
-    bounds = np.zeros(len(claims) + 1, dtype=np.int64)
-    np.cumsum([c.rx_sysid.shape[0] for c in claims], out=bounds[1:])
+    bounds = reception_bounds(claims)
     return observe_batch_kernel(
         np.stack([c.claimed_p_enu_m for c in claims]),
         np.concatenate([c.rx_p_enu_m for c in claims]),

@@ -86,20 +86,24 @@ def test_a_cycle_matches_as_its_claims_one_by_one() -> None:
 
 @pytest.mark.parametrize("max_samples", [50, 700, 5000])
 def test_a_cycle_adds_the_rows_one_add_per_claim_would(max_samples: int) -> None:
-    """The batched write against one ``add`` per claim with the distances written out: the
-    same columns row by row, wrapping around the ring (50: a cycle larger than the ring)."""
+    """The batched write against a ring written one reception at a time, the distances
+    written out: the same columns row by row, wrapping around the ring (50: a cycle larger
+    than the ring, which goes claim by claim)."""
     rng = np.random.default_rng(2)
-    batched, one_by_one = LabelledReceptions(max_samples), LabelledReceptions(max_samples)
+    batched = LabelledReceptions(max_samples)
+    rows: list[list[float]] = [[0.0] * 4 for _ in range(max_samples)]
     added = 0
     for cycle in range(12):
         claims = _random_cycle(rng, 24, 0.25 * cycle)
         labelled = [(int(k) + 1, claim) for k, claim in enumerate(claims) if k % 3]
         batched.add_claims(labelled)
-        added += sum(claim.n_receivers for _, claim in labelled)
         for tx, claim in labelled:
             distance = np.linalg.norm(claim.rx_p_enu_m - claim.claimed_p_enu_m, axis=1)
-            one_by_one.add(tx, claim.rx_sysid, distance, claim.rssi_dbm)
-        for column in ("tx_sysid", "rx_sysid", "distance_m", "rssi_dbm"):
-            assert np.array_equal(getattr(batched, column), getattr(one_by_one, column))
-        assert len(batched) == len(one_by_one)
+            for rx, d, rssi in zip(claim.rx_sysid, distance, claim.rssi_dbm, strict=True):
+                rows[added % max_samples] = [tx, rx, d, rssi]
+                added += 1
+        written = np.array(rows[: min(added, max_samples)])
+        for j, column in enumerate(("tx_sysid", "rx_sysid", "distance_m", "rssi_dbm")):
+            assert np.array_equal(getattr(batched, column), written[:, j])
+        assert len(batched) == min(added, max_samples)
     assert (added > max_samples) == (max_samples < 5000)  # wrapped, or never full
