@@ -103,7 +103,12 @@ class CompanionConfig:
     lookahead_s: float = 1.0  # straight-line target this far ahead at cruise speed
     approach_radius_m: float = 15.0  # position-only target at the goal inside this
     arrival_radius_m: float = 10.0  # horizontal
-    arrival_alt_tolerance_m: float = 5.0
+    # Arrived also needs the height within this of the cruise altitude; None (the default):
+    # at any height. The delivery is on the ground below, and the descent (flown by the
+    # planner among the traffic) starts from wherever the aircraft is: an aircraft that
+    # reached its site above or below its cruise level, having avoided traffic there, held
+    # the site for its climb or descent to that level first, and others waited on it.
+    arrival_alt_tolerance_m: float | None = None
     on_arrival: OnArrival = OnArrival.LAND  # a delivery lands, and leaves the airspace
     # Landing: the planner flies the descent to the delivery point on the ground (still
     # avoiding traffic and unsafe regions); below this height the autopilot's LAND takes over.
@@ -157,6 +162,8 @@ class CompanionConfig:
         check_in_interval("rid_system_update_period_s", self.rid_system_update_period_s, 0.0, 3.0)
         for name in _POSITIVE:
             check_in_interval(name, getattr(self, name), 0.0, math.inf)
+        if self.arrival_alt_tolerance_m is not None:
+            check_in_interval("arrival_alt_tolerance_m", self.arrival_alt_tolerance_m, 0.0, 1e4)
         if self.approach_radius_m < self.arrival_radius_m:
             raise FieldValueError(
                 "approach_radius_m",
@@ -183,7 +190,6 @@ _POSITIVE = (
     "lookahead_s",
     "approach_radius_m",
     "arrival_radius_m",
-    "arrival_alt_tolerance_m",
     "settled_speed_m_s",
     "replan_period_s",
     "observation_batch_s",

@@ -213,12 +213,12 @@ def _airborne(f: FlightStatus, c: CompanionConfig, entered_s: float) -> bool:
 
 
 def _goal_reached(f: FlightStatus, c: CompanionConfig, entered_s: float) -> bool:
-    return (
-        f.goal_distance_h_m is not None
-        and f.goal_alt_error_m is not None
-        and f.goal_distance_h_m <= c.arrival_radius_m
-        and f.goal_alt_error_m <= c.arrival_alt_tolerance_m
-    )
+    """Over the delivery site: horizontally within ``arrival_radius_m``, at any height unless
+    ``arrival_alt_tolerance_m`` asks for the cruise altitude too."""
+    if f.goal_distance_h_m is None or f.goal_distance_h_m > c.arrival_radius_m:
+        return False
+    tolerance = c.arrival_alt_tolerance_m
+    return tolerance is None or (f.goal_alt_error_m is not None and f.goal_alt_error_m <= tolerance)
 
 
 def _low_enough(f: FlightStatus, c: CompanionConfig, entered_s: float) -> bool:

@@ -191,7 +191,7 @@ def test_in_progress_extends_the_wait() -> None:
         (Phase.CLIMB, FlightStatus(True, 0.0, False, 3.0), Phase.CLIMB),  # heartbeat predates
         (Phase.CRUISE, FlightStatus(True, 1.0, True, 30, 9.0, 4.0, 6.0), Phase.HOVER),
         (Phase.CRUISE, FlightStatus(True, 1.0, True, 30, 11.0, 1.0, 6.0), Phase.CRUISE),
-        (Phase.CRUISE, FlightStatus(True, 1.0, True, 30, 2.0, 6.0, 6.0), Phase.CRUISE),
+        (Phase.CRUISE, FlightStatus(True, 1.0, True, 30, 2.0, 40.0, 6.0), Phase.HOVER),  # 40 m off
         (Phase.HOVER, FlightStatus(True, 1.0, True, 30, 2.0, 1.0, 0.3), Phase.DONE),
         (Phase.TAKEOFF, FlightStatus(True, 1.0, True, 40.0), Phase.CRUISE),  # restarted aloft
     ],
@@ -200,6 +200,19 @@ def test_conditions_move_the_phase(phase: Phase, status: FlightStatus, expected:
     mission = Mission(replace(CompanionConfig(), on_arrival=OnArrival.HOVER), SYSID)
     mission.phase, mission.entered_s = phase, 0.5
     mission.step(2.0, status)
+    assert mission.phase is expected
+
+
+@pytest.mark.parametrize(
+    ("alt_error_m", "expected"), [(4.0, Phase.HOVER), (6.0, Phase.CRUISE), (None, Phase.CRUISE)]
+)
+def test_an_altitude_tolerance_asks_for_the_cruise_level_too(
+    alt_error_m: float | None, expected: Phase
+) -> None:
+    config = replace(CompanionConfig(), arrival_alt_tolerance_m=5.0, on_arrival=OnArrival.HOVER)
+    mission = Mission(config, SYSID)
+    mission.phase, mission.entered_s = Phase.CRUISE, 0.5
+    mission.step(2.0, FlightStatus(True, 1.0, True, 30, 2.0, alt_error_m, 6.0))
     assert mission.phase is expected
 
 
