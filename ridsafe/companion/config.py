@@ -162,8 +162,8 @@ class CompanionConfig:
         check_in_interval("rid_system_update_period_s", self.rid_system_update_period_s, 0.0, 3.0)
         for name in _POSITIVE:
             check_in_interval(name, getattr(self, name), 0.0, math.inf)
-        if self.arrival_alt_tolerance_m is not None:
-            check_in_interval("arrival_alt_tolerance_m", self.arrival_alt_tolerance_m, 0.0, 1e4)
+        if (tolerance := self.arrival_alt_tolerance_m) is not None:
+            check_in_interval("arrival_alt_tolerance_m", tolerance, 0.0, math.inf)
         if self.approach_radius_m < self.arrival_radius_m:
             raise FieldValueError(
                 "approach_radius_m",
