@@ -21,6 +21,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -37,60 +38,42 @@ DELIVERY_CLUSTER = Path(__file__).with_name("delivery_cluster.yaml")
 NOMINAL_ARRIVAL_S = 4.0 + 300.0 / 8.0  # take-off, then 300 m at 8 m/s
 
 
-def _arrival_s(tmp_path: Path, ignore_grounded: bool) -> float | None:
-    loaded = load_config(DEPOT_JAM, ScenarioFile)
-    companion = dataclasses.replace(loaded.companion, ignore_grounded_traffic=ignore_grounded)
-    loaded = dataclasses.replace(loaded, companion=companion)
-    out = tmp_path / f"grounded-{ignore_grounded}.mcap"
+def _arrivals_s(tmp_path: Path, scenario: Path, **companion: Any) -> dict[int, float]:
+    """Fly ``scenario`` (aware, lockstep) with these companion settings: each benign
+    aircraft's arrival time (s; inf when it never arrived)."""
+    loaded = load_config(scenario, ScenarioFile)
+    changed = dataclasses.replace(loaded.companion, **companion)
+    loaded = dataclasses.replace(loaded, companion=changed)
+    out = tmp_path / f"{scenario.stem}-{len(list(tmp_path.iterdir()))}.mcap"
     run_lockstep(loaded, "aware", out, recorder_process=False)
-    return arrival_times_s(load_run(out)).get(1)
+    run = load_run(out)
+    arrivals = arrival_times_s(run)
+    return {s: math.inf if (t := arrivals.get(s)) is None else t for s in run.goals_enu_m}
 
 
 @pytest.mark.slow
 def test_parked_aircraft_jam_the_departure_unless_left_out(tmp_path: Path) -> None:
-    jammed = _arrival_s(tmp_path, ignore_grounded=False)
-    free = _arrival_s(tmp_path, ignore_grounded=True)
-    assert free is not None and free <= NOMINAL_ARRIVAL_S + 6.0
-    assert jammed is None or jammed >= free + 5.0  # today: 53.7 s against 45.4 s
-
-
-def _lane_arrivals_s(tmp_path: Path, gate: TrafficGate) -> list[float | None]:
-    loaded = load_config(PARALLEL_LANES, ScenarioFile)
-    loaded = dataclasses.replace(
-        loaded, companion=dataclasses.replace(loaded.companion, traffic_gate=gate)
-    )
-    out = tmp_path / f"lanes-{gate.min_airborne}.mcap"
-    run_lockstep(loaded, "aware", out, recorder_process=False)
-    arrivals = arrival_times_s(load_run(out))
-    return [arrivals.get(sysid) for sysid in range(1, 6)]
+    jammed = _arrivals_s(tmp_path, DEPOT_JAM, ignore_grounded_traffic=False)[1]
+    free = _arrivals_s(tmp_path, DEPOT_JAM, ignore_grounded_traffic=True)[1]
+    assert free <= NOMINAL_ARRIVAL_S + 6.0
+    assert jammed >= free + 5.0  # today: 53.7 s against 45.4 s
 
 
 @pytest.mark.slow
 def test_parallel_lanes_jam_unless_the_gate_hands_only_conflicts(tmp_path: Path) -> None:
     nominal_s = 4.0 + 450.0 / 8.0
-    jammed = _lane_arrivals_s(tmp_path, TrafficGate())
-    gated = _lane_arrivals_s(tmp_path, TrafficGate(min_airborne=2))
-    assert all(t is not None and t <= nominal_s + 6.0 for t in gated)
-    latest_gated = max(t for t in gated if t is not None)
-    latest_jammed = max(math.inf if t is None else t for t in jammed)
-    assert latest_jammed >= latest_gated + 4.0  # today: 71.1 s against 65.2 s
-
-
-def _cluster_arrivals_s(tmp_path: Path, alt_tolerance_m: float | None) -> list[float]:
-    loaded = load_config(DELIVERY_CLUSTER, ScenarioFile)
-    companion = dataclasses.replace(loaded.companion, arrival_alt_tolerance_m=alt_tolerance_m)
-    loaded = dataclasses.replace(loaded, companion=companion)
-    out = tmp_path / f"cluster-{alt_tolerance_m}.mcap"
-    run_lockstep(loaded, "aware", out, recorder_process=False)
-    arrivals = arrival_times_s(load_run(out))
-    return [math.inf if (t := arrivals.get(s)) is None else t for s in range(1, 5)]
+    jammed = _arrivals_s(tmp_path, PARALLEL_LANES, traffic_gate=TrafficGate()).values()
+    gated = _arrivals_s(tmp_path, PARALLEL_LANES, traffic_gate=TrafficGate(min_airborne=2))
+    assert all(t <= nominal_s + 6.0 for t in gated.values())
+    assert max(jammed) >= max(gated.values()) + 4.0  # today: 71.1 s against 65.2 s
 
 
 @pytest.mark.slow
 def test_crowded_sites_deliver_sooner_when_the_descent_starts_at_any_height(
     tmp_path: Path,
 ) -> None:
-    at_cruise_level = _cluster_arrivals_s(tmp_path, 5.0)
-    at_any_height = _cluster_arrivals_s(tmp_path, None)  # the default
-    assert all(math.isfinite(t) for t in at_any_height)
-    assert max(at_any_height) <= max(at_cruise_level) - 15.0  # today: 88.1 s against 119.4 s
+    at_cruise_level = _arrivals_s(tmp_path, DELIVERY_CLUSTER, arrival_alt_tolerance_m=5.0)
+    at_any_height = _arrivals_s(tmp_path, DELIVERY_CLUSTER)  # the default
+    assert all(math.isfinite(t) for t in at_any_height.values())
+    latest_s = max(at_any_height.values())
+    assert latest_s <= max(at_cruise_level.values()) - 15.0  # today: 88.1 s against 119.4 s
