@@ -14,7 +14,7 @@ from scipy import stats
 from ridsafe.common.messages import AlertState, RidsafeDetector
 from ridsafe.common.pathloss import received_power_dbm
 from ridsafe.gcs.pipeline import EstimationPipeline
-from ridsafe.gcs.pipeline_api import CycleOutput, GcsPipeline, ObservedClaim, readonly
+from ridsafe.gcs.pipeline_api import CycleOutput, GcsPipeline, ObservedClaim, readonly, receptions
 from ridsafe.gcs.pipeline_config import ForcedAlertConfig, PipelineConfig
 from ridsafe.gcs.synthetic.evaluate import run_pipeline
 from ridsafe.gcs.synthetic.traffic import CYCLE_S, SPOOFER_ID, Scene, Traffic, make_traffic
@@ -212,3 +212,27 @@ def test_tracks_may_leave_out_receivers_on_the_ground_the_detectors_keep() -> No
         )
     assert statistics[0.0] == statistics[15.0]  # the detectors heard the same
     assert errors[15.0] < 30.0 < errors[0.0]
+
+
+def test_a_track_heard_only_by_grounded_receivers_is_still_heard() -> None:
+    """Receptions left out of the tracks are still hearing: a transmitter that only the
+    grounded receivers hear for longer than ``silence_timeout_s`` keeps its track and alert."""
+    traffic = _with_grounded_receivers(
+        make_traffic(Scene(seed=5, n_receivers=10, duration_s=40.0)), np.random.default_rng(6)
+    )
+    only_grounded_from_s = 20.0
+    for t, claims in traffic.cycles.items():
+        if t >= only_grounded_from_s:
+            traffic.cycles[t] = [
+                receptions(c, c.rx_p_enu_m[:, 2] < 1.0) if c.uas_id == SPOOFER_ID else c
+                for c in claims
+            ]
+    cfg = PipelineConfig()
+    cfg = dataclasses.replace(
+        cfg, tracks=dataclasses.replace(cfg.tracks, min_receiver_height_m=15.0)
+    )
+    assert traffic.scene.duration_s - only_grounded_from_s > cfg.tracks.silence_timeout_s
+    cycles = _run(traffic, cfg)
+    assert any(t < only_grounded_from_s and out.tracks for t, out in cycles)  # it started
+    assert not any(SPOOFER_ID in out.deleted_tracks for _, out in cycles)
+    assert [track.uas_id for track in cycles[-1][1].tracks] == [SPOOFER_ID]
