@@ -4,12 +4,14 @@
 start at the depots in turn (aircraft k at depot k mod 3), each depot launching one aircraft
 every ``launch_interval_s`` (faster when that would not fit in ``launch_window_s``) from pads
 ``pad_spacing_m`` apart inside the area, so departing aircraft do not start inside each
-other's NMAC radius (``family_launches``: the schedule, and the refusal of an N that cannot be
-drawn); each delivery site is drawn uniformly in the area between ``min_trip_m`` and
-``max_trip_m`` from its depot and, for a late launch, near enough to its pad that a nominal
-flight (``nominal_takeoff_s``, then straight at ``nominal_speed_m_s``) arrives by
-``delivery_deadline_s`` (never binding for launches up to 20 s, so the paper's 4-16 aircraft
-are drawn as they always were); cruise altitudes are drawn from ``cruise_alts_m``. One
+other's NMAC radius (``family_launches``: the schedule, the pads, and the refusal of an N that
+cannot be drawn); each delivery site is drawn uniformly in the area, and the launch takes the
+free pad facing it (``pad_choice``), with the site between ``min_trip_m`` and ``max_trip_m``
+from that pad and, for a late launch, near enough to it that a nominal flight
+(``nominal_takeoff_s``, then straight at ``nominal_speed_m_s``) arrives by
+``delivery_deadline_s`` (never binding for launches up to 20 s); cruise altitudes are drawn
+from ``cruise_alts_m``. ``pad_choice: in_turn`` draws the scenarios of the reports flown
+before the pads faced the deliveries (pads in ring order, trips measured from the depot). One
 spoofer crosses the area on a straight line near its centre at constant speed and cruise
 altitude, broadcasting a constant offset.
 
@@ -36,6 +38,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -50,7 +53,13 @@ from ridsafe.common.scenario import (
     cta2063_serial,
 )
 from ridsafe.tools.run.family_adversaries import AdversaryDraw, draw_ghost, draw_spoofer
-from ridsafe.tools.run.family_launches import Launch, LaunchRules, launch_schedule
+from ridsafe.tools.run.family_launches import (
+    DepotPads,
+    Launch,
+    LaunchRules,
+    PadChoice,
+    launch_schedule,
+)
 
 SERIAL_MAKER = "RSAF"
 
@@ -75,6 +84,10 @@ class FamilyConfig:
     max_pad_rings: int = 2  # a depot's pads lie within max_pad_rings * pad_spacing_m
     pad_margin_m: float = 5.0  # pads at least this far inside the area's edge
     pad_reuse_s: float = 15.0  # a pad launches again no sooner than this
+    # Which pad a launch takes (family_launches): the free pad facing its delivery, so the
+    # departure leaves the depot behind it; in_turn (the rings in order, trips measured from
+    # the depot) draws the scenarios of the reports flown before it.
+    pad_choice: PadChoice = PadChoice.TOWARD_DELIVERY
     min_trip_m: float = 300.0
     max_trip_m: float = 550.0  # a delivery, with detours and the landing, fits in 120 s
     # A nominal flight from the pad arrives by this time (caps the trips of late launches;
@@ -139,6 +152,7 @@ class FamilyConfig:
             self.max_pad_rings,
             self.pad_margin_m,
             self.pad_reuse_s,
+            self.pad_choice,
         )
 
 
@@ -146,7 +160,13 @@ def generate(base: Scenario, n_aircraft: int, seed: int, family: FamilyConfig) -
     """Scenario ``seed`` of the family with ``n_aircraft`` benign aircraft (and a spoofer)."""
     launches = launch_schedule(n_aircraft, family.launch_rules)
     draw = rng.stream(seed, "scenario")
-    aircraft = tuple(_aircraft(k, launch, draw, family) for k, launch in enumerate(launches))
+    depots: list[DepotPads] | None = None
+    if family.pad_choice is PadChoice.TOWARD_DELIVERY:
+        depots = [DepotPads(d, family.launch_rules) for d in family.depots_enu_m]
+    aircraft = tuple(
+        _aircraft(k, launch, draw, family, None if depots is None else depots[launch.depot_index])
+        for k, launch in enumerate(launches)
+    )
     wanted = family.adversaries.resolved()
     name = f"family-n{n_aircraft}-s{seed}"
     if wanted.is_default:
@@ -236,20 +256,41 @@ def _nominal_flight(a: AircraftConfig, t_s: np.ndarray, family: FamilyConfig) ->
 
 
 def _aircraft(
-    k: int, launch: Launch, draw: np.random.Generator, family: FamilyConfig
+    k: int,
+    launch: Launch,
+    draw: np.random.Generator,
+    family: FamilyConfig,
+    depot_pads: DepotPads | None,
 ) -> AircraftConfig:
+    """Aircraft ``k``: its delivery site, and its pad (``depot_pads``: the free pad facing the
+    site, and the trip measured from it; None: the launch's pad in turn, the trip from the
+    depot)."""
     depot = np.array(family.depots_enu_m[launch.depot_index])
-    pad = np.array(launch.pad_enu_m)
     # A fixed number of draws per aircraft keeps seeds matched across densities.
     u = draw.random(65)
     flying_s = family.delivery_deadline_s - launch.departure_s - family.nominal_takeoff_s
-    goal = _delivery_site(u[:-1], depot, pad, flying_s * family.nominal_speed_m_s, family)
+    max_from_pad_m = flying_s * family.nominal_speed_m_s
+    if depot_pads is None:
+        goal, pad_enu = _delivery_site(
+            u[:-1], depot, lambda _: launch.pad_enu_m, False, max_from_pad_m, family
+        )
+    else:
+        goal, pad_enu = _delivery_site(
+            u[:-1],
+            depot,
+            lambda site: depot_pads.facing(site.tolist(), launch.departure_s),
+            True,
+            max_from_pad_m,
+            family,
+        )
+        depot_pads.take(pad_enu, launch.departure_s)
+    pad = np.array(pad_enu)
     alt = family.cruise_alts_m[int(u[-1] * len(family.cruise_alts_m))]
     if family.cruise_alt_by_heading:
         alt = family.cruise_alts_m[_heading_sector(goal - pad, len(family.cruise_alts_m))]
     return AircraftConfig(
         serial=cta2063_serial(SERIAL_MAKER, f"{k + 1:08d}"),
-        start_enu_m=_vec(pad),
+        start_enu_m=pad_enu,
         goal_enu_m=_vec(goal),
         cruise_alt_m=alt,
         departure_s=launch.departure_s,
@@ -266,24 +307,27 @@ def _heading_sector(trip_enu_m: np.ndarray, sectors: int) -> int:
 def _delivery_site(
     uniforms: np.ndarray,
     depot: np.ndarray,
-    pad: np.ndarray,
+    pad_for: Callable[[np.ndarray], Vec3],
+    trip_from_pad: bool,
     max_from_pad_m: float,
     family: FamilyConfig,
-) -> np.ndarray:
-    """Rejection-sample a site ``min_trip_m``..``max_trip_m`` from the depot and at most
-    ``max_from_pad_m`` from the pad (deterministic given uniforms)."""
+) -> tuple[np.ndarray, Vec3]:
+    """Rejection-sample a site ``min_trip_m``..``max_trip_m`` from the pad
+    (``trip_from_pad``) or the depot, and at most ``max_from_pad_m`` from the pad, where
+    ``pad_for(site)`` is the pad that launches toward it; the site and its pad
+    (deterministic given uniforms)."""
     w = family.half_width_m * 0.9
     for ux, uy in uniforms.reshape(-1, 2):
         site = np.array([(2 * ux - 1) * w, (2 * uy - 1) * w, 0.0])
-        from_depot_m = np.hypot(*(site - depot)[:2])
-        if (
-            family.min_trip_m <= from_depot_m <= family.max_trip_m
-            and np.hypot(*(site - pad)[:2]) <= max_from_pad_m
-        ):
-            return site
+        pad = pad_for(site)
+        from_pad_m = math.hypot(site[0] - pad[0], site[1] - pad[1])
+        trip_m = from_pad_m if trip_from_pad else float(np.hypot(*(site - depot)[:2]))
+        if family.min_trip_m <= trip_m <= family.max_trip_m and from_pad_m <= max_from_pad_m:
+            return site, pad
     toward_centre = -depot / max(float(np.linalg.norm(depot)), 1e-9)
     trip_m = min(0.5 * (family.min_trip_m + family.max_trip_m), max_from_pad_m)
-    return depot + toward_centre * trip_m
+    site = depot + toward_centre * trip_m
+    return site, pad_for(site)
 
 
 def _spoofer(draw: np.random.Generator, family: FamilyConfig) -> SpooferConfig:

@@ -10,7 +10,13 @@ import math
 import numpy as np
 import pytest
 
-from ridsafe.tools.run.family_launches import FamilyDrawError, launch_schedule, pad_offsets_enu_m
+from ridsafe.tools.run.family_launches import (
+    DepotPads,
+    FamilyDrawError,
+    PadChoice,
+    launch_schedule,
+    pad_offsets_enu_m,
+)
 from ridsafe.tools.run.scenario import load_scenario_file
 from ridsafe.tools.run.scenario_family import FamilyConfig, generate
 
@@ -31,14 +37,38 @@ def _ring_pad(depot: tuple[float, float, float], slot: int, spacing_m: float) ->
 
 
 def test_the_paper_densities_launch_as_they_always_did() -> None:
-    """Up to 16 aircraft: 4 s apart from the ring pads, nothing adapted."""
+    """Up to 16 aircraft: 4 s apart, nothing adapted; with ``pad_choice: in_turn`` from the
+    ring pads in order and trips measured from the depot (the scenarios of the reports flown
+    before pads faced the deliveries)."""
     launches = launch_schedule(16, PAPER_FAMILY.launch_rules)
-    for k, launch in enumerate(launches):
+    in_turn = dataclasses.replace(PAPER_FAMILY, pad_choice=PadChoice.IN_TURN)
+    drawn = generate(PAPER.scenario, 16, 3, in_turn).aircraft
+    for k, (launch, a) in enumerate(zip(launches, drawn, strict=True)):
         depot = PAPER_FAMILY.depots_enu_m[k % 3]
         assert launch.depot_index == k % 3
-        assert launch.departure_s == (k // 3) * 4.0
+        assert launch.departure_s == a.departure_s == (k // 3) * 4.0
         expected = _ring_pad(depot, k // 3, PAPER_FAMILY.pad_spacing_m)
         np.testing.assert_allclose(launch.pad_enu_m, expected, atol=1e-9)
+        np.testing.assert_allclose(a.start_enu_m, expected, atol=1e-9)
+        trip_m = math.dist(depot[:2], a.goal_enu_m[:2])
+        assert in_turn.min_trip_m <= trip_m <= in_turn.max_trip_m
+
+
+def test_a_launch_takes_the_free_pad_furthest_toward_its_delivery() -> None:
+    """The pad facing the site; the next launch that way, while it is busy, the next pad
+    along the bearing; after ``pad_reuse_s`` it again."""
+    rules = dataclasses.replace(PAPER_FAMILY, half_width_m=1000.0).launch_rules
+    pads = DepotPads((0.0, 0.0, 0.0), rules)
+    east = (400.0, 5.0, 0.0)  # a little north: the 30 degree pad is the next along
+    first = pads.facing(east, 0.0)
+    np.testing.assert_allclose(first, (110.0, 0.0, 0.0), atol=1e-9)
+    pads.take(first, 0.0)
+    second = pads.facing(east, 4.0)
+    np.testing.assert_allclose(second, (110.0 * math.cos(math.pi / 6), 55.0, 0.0), atol=1e-9)
+    pads.take(second, 4.0)
+    west = pads.facing((-300.0, 10.0, 0.0), 8.0)
+    assert west[0] < -100.0  # the other side of the depot is free
+    assert pads.facing(east, 4.0 + rules.pad_reuse_s) == first
 
 
 @pytest.mark.parametrize("n_aircraft", [1, 16, 24, 32, 48, 64, 96])

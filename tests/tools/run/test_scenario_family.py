@@ -6,7 +6,9 @@ import dataclasses
 import math
 
 import numpy as np
+import pytest
 
+from ridsafe.tools.run.family_launches import PadChoice, pad_offsets_enu_m
 from ridsafe.tools.run.scenario import load_scenario_file
 from ridsafe.tools.run.scenario_family import (
     FamilyConfig,
@@ -33,23 +35,62 @@ def test_geometry_depots_trips_departures_and_serials() -> None:
         assert len({a.serial for a in s.aircraft}) == 16
         for k, a in enumerate(s.aircraft):
             depot = np.array(FAMILY.depots_enu_m[k % 3])
-            assert np.hypot(*(np.array(a.start_enu_m) - depot)[:2]) <= 2 * FAMILY.pad_spacing_m
+            assert (
+                np.hypot(*(np.array(a.start_enu_m) - depot)[:2]) <= 2 * FAMILY.pad_spacing_m + 1e-6
+            )
             trip = math.dist(a.start_enu_m[:2], a.goal_enu_m[:2])
-            pad = 2 * FAMILY.pad_spacing_m  # trips are drawn from the depot, flown from a pad
-            assert FAMILY.min_trip_m - pad <= trip <= FAMILY.max_trip_m + pad
+            assert FAMILY.min_trip_m <= trip <= FAMILY.max_trip_m  # drawn from the pad
             assert all(abs(c) <= FAMILY.half_width_m for c in a.goal_enu_m[:2])
             assert a.departure_s == (k // 3) * FAMILY.launch_interval_s
             assert a.cruise_alt_m in FAMILY.cruise_alts_m
 
 
-def test_pads_of_a_depot_stand_further_apart_than_the_nmac_radius() -> None:
-    starts = np.array([a.start_enu_m for a in generate(BASE, 30, 0, FAMILY).aircraft])
+@pytest.mark.parametrize("n_aircraft", [30, 64])
+def test_pads_in_use_together_stand_further_apart_than_the_nmac_radius(n_aircraft: int) -> None:
+    """Two launches of a depot within ``pad_reuse_s`` of each other use pads at least
+    ``pad_spacing_m`` (> the 50 m NMAC radius) apart; a pad launches again only after it."""
+    aircraft = generate(BASE, n_aircraft, 0, FAMILY).aircraft
     for depot in range(3):
-        pads = starts[depot::3]
-        gaps = np.linalg.norm(pads[:, None, :] - pads[None, :, :], axis=-1)
-        assert (
-            gaps[~np.eye(len(pads), dtype=bool)].min() >= FAMILY.pad_spacing_m - 0.01
-        )  # mm rounding
+        launches = aircraft[depot::3]
+        for i, a in enumerate(launches):
+            for b in launches[i + 1 :]:
+                if b.departure_s - a.departure_s < FAMILY.pad_reuse_s - 1e-9:
+                    gap_m = math.dist(a.start_enu_m, b.start_enu_m)
+                    assert gap_m >= FAMILY.pad_spacing_m - 0.01  # mm rounding
+
+
+def _climb_outs_over_another_pad(family: FamilyConfig, n_aircraft: int) -> float:
+    """The fraction of trips whose straight line from the pad passes within 25 m of another
+    pad of its depot (10 seeds)."""
+    crossing = []
+    for seed in range(10):
+        for k, a in enumerate(generate(BASE, n_aircraft, seed, family).aircraft):
+            pad, site = np.array(a.start_enu_m[:2]), np.array(a.goal_enu_m[:2])
+            trip = site - pad
+            others = [
+                np.array(p[:2])
+                for p in pad_offsets_enu_m(family.depots_enu_m[k % 3], family.launch_rules)
+                if math.dist(p[:2], pad) > 1.0
+            ]
+            along = [np.clip(np.dot(p - pad, trip) / np.dot(trip, trip), 0.0, 1.0) for p in others]
+            closest_m = min(
+                float(np.linalg.norm(pad + t * trip - p))
+                for t, p in zip(along, others, strict=True)
+            )
+            crossing.append(closest_m < 25.0)
+    return float(np.mean(crossing))
+
+
+def test_departures_leave_their_depot_behind_them() -> None:
+    """A launch takes the free pad facing its delivery: at 16 and 32 aircraft no straight
+    climb-out passes over another pad of the depot, against most of them with pads in turn;
+    at 64, with a third of the pads busy, a few do."""
+    in_turn = dataclasses.replace(FAMILY, pad_choice=PadChoice.IN_TURN)
+    assert _climb_outs_over_another_pad(FAMILY, 16) == 0.0
+    assert _climb_outs_over_another_pad(FAMILY, 32) == 0.0
+    assert _climb_outs_over_another_pad(FAMILY, 64) < 0.25
+    assert _climb_outs_over_another_pad(in_turn, 16) > 0.75
+    assert _climb_outs_over_another_pad(in_turn, 32) > 0.75
 
 
 def test_spoofer_crosses_the_area_near_its_centre() -> None:
