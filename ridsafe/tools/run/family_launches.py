@@ -71,12 +71,13 @@ class LaunchRules:
     max_pad_rings: int
     pad_margin_m: float
     pad_reuse_s: float
-    pad_choice: PadChoice
 
 
 @dataclass(frozen=True)
 class Launch:
-    """One aircraft's take-off: its depot (index), pad (ENU, m) and departure time (s)."""
+    """One aircraft's take-off: its depot (index), pad (ENU, m) and departure time (s). The
+    pad is the one in turn; with ``PadChoice.TOWARD_DELIVERY`` the family takes the pad facing
+    the delivery instead (``DepotPads``)."""
 
     depot_index: int
     pad_enu_m: Vec3

@@ -152,7 +152,6 @@ class FamilyConfig:
             self.max_pad_rings,
             self.pad_margin_m,
             self.pad_reuse_s,
-            self.pad_choice,
         )
 
 

@@ -200,8 +200,11 @@ def test_the_pool_and_a_dask_local_cluster_give_identical_metrics(
     assert {json.loads((tmp_path / d / RESULT_FILE).read_text())["engine"] for d in dask} == {
         "dask"
     }
-    # the runs differ from each other: a comparison of identical numbers would prove nothing
-    assert len({json.dumps(m, sort_keys=True) for m in pool.values()}) == 8
+    # the scenarios differ from each other: a comparison of identical numbers would prove
+    # nothing (the two planners may fly a 20 s scenario alike, before the spoofer matters)
+    for planner in ("aware", "trust-rid"):
+        runs = [m for run, m in pool.items() if f"/{planner}/" in run]
+        assert len(runs) == 4 and len({json.dumps(m, sort_keys=True) for m in runs}) == 4
 
 
 @pytest.mark.slow
