@@ -269,19 +269,15 @@ def _aircraft(
     u = draw.random(65)
     flying_s = family.delivery_deadline_s - launch.departure_s - family.nominal_takeoff_s
     max_from_pad_m = flying_s * family.nominal_speed_m_s
-    if depot_pads is None:
-        goal, pad_enu = _delivery_site(
-            u[:-1], depot, lambda _: launch.pad_enu_m, False, max_from_pad_m, family
-        )
-    else:
-        goal, pad_enu = _delivery_site(
-            u[:-1],
-            depot,
-            lambda site: depot_pads.facing(site.tolist(), launch.departure_s),
-            True,
-            max_from_pad_m,
-            family,
-        )
+
+    def pad_for(site: np.ndarray) -> Vec3:
+        if depot_pads is None:
+            return launch.pad_enu_m
+        return depot_pads.facing(site.tolist(), launch.departure_s)
+
+    trip_from_pad = depot_pads is not None
+    goal, pad_enu = _delivery_site(u[:-1], depot, pad_for, trip_from_pad, max_from_pad_m, family)
+    if depot_pads is not None:
         depot_pads.take(pad_enu, launch.departure_s)
     pad = np.array(pad_enu)
     alt = family.cruise_alts_m[int(u[-1] * len(family.cruise_alts_m))]
