@@ -98,6 +98,12 @@ class MissionDriver:
             return (ground[0], ground[1], min(lpn.p_ned_m[2], ground[2]))  # hold the height
         return ground
 
+    def goal_any_height(self) -> bool:
+        """``goal_local`` is reached over it at any height: the cruise point before the
+        descent, when arriving asks no height (``arrival_alt_tolerance_m`` unset)."""
+        descending = self.mission.phase is Phase.DESCEND
+        return not descending and self.config.arrival_alt_tolerance_m is None
+
     def pad_ned_m(self) -> Vec3 | None:
         """The pad the mission is about to use: its own (home) before take-off, the delivery
         point on the ground while descending; None in other phases or before home is known."""

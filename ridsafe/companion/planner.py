@@ -35,11 +35,13 @@ trust-rid  ordinary aircraft at the claimed    ignored (the paper's baseline)
 Goal handling: within ``approach_radius_m``, with no hazard in play (status ``CRUISE``) or with
 traffic about that stays ``approach_min_separation_m`` away while the aircraft holds here and no
 region near, the setpoint is the goal itself (zero velocity): the autopilot's square-root shaper
-brakes onto it, which no held-velocity action can among traffic. Within ``arrival_radius_m``
-(3-D) the aircraft is *arrived* (latched) and holds the goal (or lands) unless an unsafe region
-engulfs it; then it evades and comes back. A progress watchdog reports ``STUCK`` (and logs a
-warning once) when the aircraft has not come ``stuck_progress_m`` closer to its goal than ever
-before for ``stuck_after_s``; it keeps flying its best action meanwhile.
+brakes onto it, which no held-velocity action can among traffic. Where the goal is reached over
+it at any height (``PlannerInput.goal_any_height``, with ``approach_level``), the radius is
+horizontal and the setpoint the point over the goal at the aircraft's own height. Within
+``arrival_radius_m`` (3-D) the aircraft is *arrived* (latched) and holds the goal (or lands)
+unless an unsafe region engulfs it; then it evades and comes back. A progress watchdog reports
+``STUCK`` (and logs a warning once) when the aircraft has not come ``stuck_progress_m`` closer
+to its goal than ever before for ``stuck_after_s``; it keeps flying its best action meanwhile.
 
 Deterministic: no randomness; ties between equal rollouts go to the right-hand turn.
 """
@@ -211,8 +213,14 @@ class FastMdpPlanner:
             return self._arrival_decision(goal, scene)
         index, status, value = choose_action(scores, actions, cfg)
         stuck = self._watchdog.update(planner_input.t_s, distance)
-        if distance <= cfg.approach_radius_m and self._clear_to_approach(status, scores, hover):
-            return PlannerDecision(_vec(goal), (0.0, 0.0, 0.0), status, value, "approach the goal")
+        level = cfg.approach_level and planner_input.goal_any_height
+        if level:  # brake onto the point over the goal, at the aircraft's height
+            point = np.array([goal[0], goal[1], p0[2]])
+            point_m, what = float(np.hypot(*(goal - p0)[:2])), "approach over the goal"
+        else:
+            point, point_m, what = goal, distance, "approach the goal"
+        if point_m <= cfg.approach_radius_m and self._clear_to_approach(status, scores, hover):
+            return PlannerDecision(_vec(point), (0.0, 0.0, 0.0), status, value, what)
         if stuck and status in (PlannerStatus.CRUISE, PlannerStatus.AVOIDING):
             status = PlannerStatus.STUCK
         leads = [cfg.target_lead_s, cfg.velocity_lead_s]

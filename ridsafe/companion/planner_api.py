@@ -58,6 +58,10 @@ class PlannerInput:
     goal_ned_m: Vec3  # delivery point at cruise altitude
     neighbours: tuple[Neighbour, ...]
     regions: tuple[Region, ...]
+    #: The goal counts as reached over it at any height (the mission's arrival before its
+    #: descent, ``companion.arrival_alt_tolerance_m`` unset): the approach may keep the
+    #: aircraft's height (``PlannerConfig.approach_level``).
+    goal_any_height: bool = False
 
 
 class PlannerStatus(enum.Enum):

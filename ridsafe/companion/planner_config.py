@@ -26,7 +26,8 @@ silent                         benign term's gating radius L)
                                toward the goal (:mod:`ridsafe.companion.planner_eval`)
                                envelope = the sim autopilot's limits; altitude 10-120 m
                                setpoint = rollout position 0.25 s and velocity 1 s ahead;
-                               goal itself within 40 m when unhindered
+                               goal itself within 40 m when unhindered (over it, at the
+                               aircraft's height, when any height arrives)
 =============================  ===========================================================
 
 The margins were chosen on ``bench/planner_closed_loop.py`` (30 seeds, 16 aircraft): a 30 m
@@ -131,6 +132,12 @@ class PlannerConfig:
     # ours: ... or when others are about but none comes closer than this while the aircraft
     # stays here (held actions cannot place it within 10 m of the goal among traffic)
     approach_min_separation_m: float = 60.0
+    # ours: where the goal counts as reached at any height (PlannerInput.goal_any_height), the
+    # approach keeps the aircraft's height: within approach_radius_m horizontally it brakes
+    # onto the point over the goal, and the mission's descent starts there. An aircraft that
+    # climbed over traffic and reached its site 40 m above its cruise level no longer waits
+    # to sink to that level among the aircraft landing nearby before it may arrive.
+    approach_level: bool = True
     arrival_radius_m: float = 10.0
     on_arrival: ArrivalAction = ArrivalAction.HOVER
     ground_down_m: float = 0.0  # NED down of the ground at the goal (home at ground level)

@@ -14,6 +14,8 @@
   also asked for the cruise altitude (``companion.arrival_alt_tolerance_m``), an aircraft
   over its site first flew back to that level among the others before descending, and the
   last delivery came half a minute later than when the descent starts from where it is.
+  Approaching the site at the cruise level (not at the aircraft's own height) still held the
+  last delivery back by a quarter of a minute.
 """
 
 from __future__ import annotations
@@ -38,12 +40,15 @@ DELIVERY_CLUSTER = Path(__file__).with_name("delivery_cluster.yaml")
 NOMINAL_ARRIVAL_S = 4.0 + 300.0 / 8.0  # take-off, then 300 m at 8 m/s
 
 
-def _arrivals_s(tmp_path: Path, scenario: Path, **companion: Any) -> dict[int, float]:
-    """Fly ``scenario`` (aware, lockstep) with these companion settings: each benign
-    aircraft's arrival time (s; inf when it never arrived)."""
+def _arrivals_s(
+    tmp_path: Path, scenario: Path, planner: dict[str, Any] | None = None, **companion: Any
+) -> dict[int, float]:
+    """Fly ``scenario`` (aware, lockstep) with these companion (and ``planner``) settings:
+    each benign aircraft's arrival time (s; inf when it never arrived)."""
     loaded = load_config(scenario, ScenarioFile)
     changed = dataclasses.replace(loaded.companion, **companion)
-    loaded = dataclasses.replace(loaded, companion=changed)
+    planner_config = dataclasses.replace(loaded.planner, **(planner or {}))
+    loaded = dataclasses.replace(loaded, companion=changed, planner=planner_config)
     out = tmp_path / f"{scenario.stem}-{len(list(tmp_path.iterdir()))}.mcap"
     run_lockstep(loaded, "aware", out, recorder_process=False)
     run = load_run(out)
@@ -77,3 +82,17 @@ def test_crowded_sites_deliver_sooner_when_the_descent_starts_at_any_height(
     assert all(math.isfinite(t) for t in at_any_height.values())
     latest_s = max(at_any_height.values())
     assert latest_s <= max(at_cruise_level.values()) - 15.0  # today: 88.1 s against 119.4 s
+
+
+@pytest.mark.slow
+def test_crowded_sites_deliver_sooner_when_the_approach_keeps_its_height(
+    tmp_path: Path,
+) -> None:
+    """Arrived over the site at any height, an aircraft that reached it above or below its
+    cruise level used to brake onto its site *at* that level, climbing or sinking among the
+    others first; approaching at its own height it arrives there (``approach_level``)."""
+    at_cruise_level = _arrivals_s(tmp_path, DELIVERY_CLUSTER, {"approach_level": False})
+    at_own_height = _arrivals_s(tmp_path, DELIVERY_CLUSTER)  # the default
+    assert all(math.isfinite(t) for t in at_own_height.values())
+    latest_s = max(at_own_height.values())
+    assert latest_s <= max(at_cruise_level.values()) - 8.0  # today: 73.7 s against 88.1 s

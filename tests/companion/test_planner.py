@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from collections.abc import Callable
@@ -256,6 +257,29 @@ def test_approach_targets_the_goal_when_unhindered() -> None:
     goal: Vec3 = (130.0, 0.0, -60.0)
     d = TrustRidPlanner().plan(_inp(p=(100.0, 0.0, -60.0), goal=goal, v=(6.0, 0.0, 0.0)))
     assert d.status is PlannerStatus.CRUISE and d.target_p_ned_m == goal
+
+
+def test_an_aircraft_high_over_its_site_approaches_it_at_its_own_height() -> None:
+    """Reached at any height, the goal is approached level: 40 m above its cruise level and
+    15 m from its site, with an aircraft landing beside the site 60 m below, the aircraft
+    brakes onto the point over the site. Asked for the goal itself it is 43 m away, beyond
+    the approach radius, and sinking onto it would close on the one landing."""
+    goal: Vec3 = (115.0, 0.0, -60.0)
+    here: Vec3 = (100.0, 0.0, -100.0)
+    landing = Neighbour("LANDING", (110.0, 10.0, -40.0), (0.0, 0.0, 1.5), 10.0, False)
+    at_cruise = _inp(p=here, goal=goal, neighbours=(landing,))
+    at_any_height = dataclasses.replace(at_cruise, goal_any_height=True)
+    level = AwarePlanner().plan(at_any_height)
+    assert level.detail == "approach over the goal"
+    assert level.target_p_ned_m == (115.0, 0.0, -100.0)
+    assert level.target_v_ned_m_s == (0.0, 0.0, 0.0)
+    for planner, inp in (
+        (AwarePlanner(), at_cruise),
+        (AwarePlanner(PlannerConfig(approach_level=False)), at_any_height),
+    ):
+        decision = planner.plan(inp)
+        assert not decision.detail.startswith("approach")
+        assert decision.target_p_ned_m != (115.0, 0.0, -100.0)
 
 
 def test_watchdog_reports_and_logs_lack_of_progress(caplog: pytest.LogCaptureFixture) -> None:
