@@ -95,6 +95,32 @@ def test_late_launches_get_deliveries_a_nominal_flight_finishes_by_the_deadline(
             assert arrival_s <= family.delivery_deadline_s + 1e-6
 
 
+def _latest_nominal_arrival_s(n_aircraft: int, seed: int) -> float:
+    family = PAPER_FAMILY
+    return max(
+        a.departure_s
+        + family.nominal_takeoff_s
+        + math.dist(a.start_enu_m[:2], a.goal_enu_m[:2]) / family.nominal_speed_m_s
+        for a in generate(PAPER.scenario, n_aircraft, seed, family).aircraft
+    )
+
+
+def test_the_deadline_is_the_latest_nominal_arrival_the_paper_densities_can_draw() -> None:
+    """So it never binds at 4-16 aircraft (their draws are those of the reports), and a
+    denser family's last launches keep as much of the run for traffic as the paper's do."""
+    family = PAPER_FAMILY
+    paper = generate(PAPER.scenario, 16, 0, family).aircraft
+    paper_latest_s = (
+        max(a.departure_s for a in paper)
+        + family.nominal_takeoff_s
+        + family.max_trip_m / family.nominal_speed_m_s
+    )
+    assert paper_latest_s <= family.delivery_deadline_s <= paper_latest_s + 1.0
+    for n_aircraft in (32, 64, 96):
+        for seed in range(5):
+            assert _latest_nominal_arrival_s(n_aircraft, seed) <= family.delivery_deadline_s + 1e-3
+
+
 def test_too_many_aircraft_per_depot_is_refused_naming_the_flag_and_keys() -> None:
     with pytest.raises(FamilyDrawError) as error:
         generate(PAPER.scenario, 128, 0, PAPER_FAMILY)
