@@ -26,8 +26,8 @@ silent                         benign term's gating radius L)
                                toward the goal (:mod:`ridsafe.companion.planner_eval`)
                                envelope = the sim autopilot's limits; altitude 10-120 m
                                setpoint = rollout position 0.25 s and velocity 1 s ahead;
-                               goal itself within 40 m when unhindered (over it, at the
-                               aircraft's height, when any height arrives)
+                               goal itself within 40 m when unhindered (the point over
+                               it at the aircraft's height where any height arrives)
 =============================  ===========================================================
 
 The margins were chosen on ``bench/planner_closed_loop.py`` (30 seeds, 16 aircraft): a 30 m
