@@ -16,9 +16,10 @@ depot's previous departure (``docs/results/dense_traffic.md``).
 Cadence: every ``launch_interval_s`` while the depot's last launch still falls within
 ``launch_window_s``; a denser family launches faster, ``interval = launch_window_s / (S - 1)``
 for ``S`` launches per depot, so every aircraft is up early enough to deliver within the run.
-The window, not more pads or a larger area, is what adapts: the area and the depots are the
-scenario's geography (a config may give more depots or a larger area, as ``configs/city.yaml``
-does), while the launch rate is an operator's choice. With the defaults (4 s, 40 s) the
+Within one area the window is what adapts: the area and the depots are the scenario's
+geography (a config may give more depots or a larger area, as ``configs/city.yaml`` does, or
+let the family copy its area for more aircraft, ``FamilyConfig.tile_capacity``), while the
+launch rate is an operator's choice. With the defaults (4 s, 40 s) the
 paper's 4-16 aircraft launch exactly as they always did (at most 6 per depot, 20 s).
 
 A family that cannot be drawn is refused (``FamilyDrawError``, naming the keys to change):
@@ -111,7 +112,8 @@ def launch_interval_s(n_aircraft: int, rules: LaunchRules) -> float:
             f"{len(rules.depots_enu_m)} depots within family.launch_window_s="
             f"{rules.launch_window_s:g} s, one every {interval:.2f} s, faster than "
             f"family.min_launch_interval_s={rules.min_launch_interval_s:g} s: fly fewer "
-            "aircraft, add depots (family.depots_enu_m) or widen the window",
+            "aircraft, add depots (family.depots_enu_m), widen the window or give more "
+            "aircraft more ground (family.tile_capacity)",
         )
     return interval
 

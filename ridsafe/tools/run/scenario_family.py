@@ -15,6 +15,13 @@ before the pads faced the deliveries (pads in ring order, trips measured from th
 spoofer crosses the area on a straight line near its centre at constant speed and cruise
 altitude, broadcasting a constant offset.
 
+More aircraft than ``tile_capacity`` (when set) get more ground: the family is drawn on k x k
+copies of the area with their depots (``FamilyConfig.sized``), the cadence, pads, trips and
+deadline as above. Without it the area stays and only the cadence adapts (``family_launches``),
+so 64 aircraft fly four times the paper's densest traffic (``docs/results/dense_traffic.md``).
+The one spoofer's line then crosses the larger area near its centre;
+``adversaries.spoofer_count`` adds more.
+
 The spoofer aims at the traffic, as an adversary would: ``spoofer_candidate_lines`` lines are
 drawn, and it flies the one that the benign aircraft's nominal flights (straight from pad to
 delivery at ``nominal_speed_m_s``, climbing at ``nominal_climb_m_s``, nobody avoiding anybody)
@@ -117,6 +124,13 @@ class FamilyConfig:
     nmac_radius_m: float = 50.0
     aim_horizon_s: float = 120.0  # how far ahead the spoofer's aim looks (not the duration)
     adversaries: AdversaryDraw = field(default_factory=AdversaryDraw)
+    # Ours: more aircraft on more ground. None: the area and depots as given, and only the
+    # launch cadence adapts to N. A number C: a scenario of N > C aircraft is drawn on k x k
+    # copies of the area side by side, k = ceil(sqrt(ceil(N / C))), each copy with the given
+    # depots (sized()), so no copy holds more than C aircraft on average and each aircraft
+    # meets about the traffic it would among C on the original area. configs/paper.yaml: 16,
+    # the paper's densest (64 aircraft: 2 km x 2 km, 12 depots).
+    tile_capacity: int | None = None
 
     def __post_init__(self) -> None:
         if not self.depots_enu_m:
@@ -133,6 +147,10 @@ class FamilyConfig:
             raise FieldValueError(
                 "min_launch_interval_s", "expected 0 < min_launch_interval_s <= launch_interval_s"
             )
+        if self.tile_capacity is not None and self.tile_capacity < 1:
+            raise FieldValueError(
+                "tile_capacity", f"expected >= 1 aircraft (or null), got {self.tile_capacity}"
+            )
         if self.max_pad_rings < 0:
             raise FieldValueError("max_pad_rings", f"expected >= 0, got {self.max_pad_rings}")
         latest_trip_m = self.nominal_speed_m_s * (
@@ -144,6 +162,31 @@ class FamilyConfig:
                 f"an aircraft launched at launch_window_s={self.launch_window_s:g} s could fly "
                 f"only {latest_trip_m:.0f} m by then, less than min_trip_m={self.min_trip_m:g}",
             )
+
+    def tiles_per_side(self, n_aircraft: int) -> int:
+        """k: a scenario of ``n_aircraft`` is drawn on k x k copies of the area."""
+        if self.tile_capacity is None or n_aircraft <= self.tile_capacity:
+            return 1
+        return math.ceil(math.sqrt(math.ceil(n_aircraft / self.tile_capacity)))
+
+    def sized(self, n_aircraft: int) -> FamilyConfig:
+        """The family that draws ``n_aircraft``: this one, or (``tile_capacity``) one on k x k
+        copies of the area, centred where this one is. Its depots are the given ones, each in
+        every copy in turn (copies from the south-west, row by row), so aircraft j departs
+        from copy j mod k^2 and the copies' shares differ by one aircraft at most."""
+        k = self.tiles_per_side(n_aircraft)
+        if k == 1:
+            return self
+        centres_m = [(2 * i - (k - 1)) * self.half_width_m for i in range(k)]
+        depots = tuple(
+            (e + de, n + dn, u)
+            for (e, n, u) in self.depots_enu_m
+            for dn in centres_m
+            for de in centres_m
+        )
+        return dataclasses.replace(
+            self, half_width_m=k * self.half_width_m, depots_enu_m=depots, tile_capacity=None
+        )
 
     @property
     def launch_rules(self) -> LaunchRules:
@@ -162,6 +205,7 @@ class FamilyConfig:
 
 def generate(base: Scenario, n_aircraft: int, seed: int, family: FamilyConfig) -> Scenario:
     """Scenario ``seed`` of the family with ``n_aircraft`` benign aircraft (and a spoofer)."""
+    family = family.sized(n_aircraft)
     launches = launch_schedule(n_aircraft, family.launch_rules)
     draw = rng.stream(seed, "scenario")
     depots: list[DepotPads] | None = None

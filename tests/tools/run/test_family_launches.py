@@ -23,7 +23,10 @@ from ridsafe.tools.run.scenario_family import FamilyConfig, generate
 PAPER = load_scenario_file("configs/paper.yaml")
 CITY = load_scenario_file("configs/city.yaml")
 assert PAPER.family is not None and CITY.family is not None
-PAPER_FAMILY, CITY_FAMILY = PAPER.family, CITY.family
+# The paper's family on its one square kilometre, the cadence alone adapting to N (the
+# config copies the area beyond 16 aircraft: test_scenario_family.py).
+PAPER_FAMILY = dataclasses.replace(PAPER.family, tile_capacity=None)
+CITY_FAMILY = CITY.family
 
 
 def _ring_pad(depot: tuple[float, float, float], slot: int, spacing_m: float) -> np.ndarray:
@@ -122,7 +125,17 @@ def test_too_many_aircraft_per_depot_is_refused_naming_the_flag_and_keys() -> No
         generate(PAPER.scenario, 128, 0, PAPER_FAMILY)
     text = str(error.value)
     assert "--aircraft 128" in text and "family.min_launch_interval_s" in text
-    assert "family.depots_enu_m" in text
+    assert "family.depots_enu_m" in text and "family.tile_capacity" in text
+
+
+def test_the_paper_config_gives_128_aircraft_nine_square_kilometres_instead() -> None:
+    """What one square kilometre refuses, configs/paper.yaml flies on 3 x 3 copies of it,
+    each depot launching at the paper's own cadence (at most 5 aircraft, every 4 s)."""
+    assert PAPER.family is not None
+    aircraft = generate(PAPER.scenario, 128, 0, PAPER.family).aircraft
+    assert len(aircraft) == 128
+    assert max(a.departure_s for a in aircraft) == 4 * PAPER_FAMILY.launch_interval_s
+    assert max(abs(c) for a in aircraft for c in a.start_enu_m[:2]) > 1000.0
 
 
 def test_a_pad_reused_too_soon_is_refused() -> None:

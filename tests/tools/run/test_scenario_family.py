@@ -8,6 +8,8 @@ import math
 import numpy as np
 import pytest
 
+from ridsafe.common.errors import FieldValueError
+from ridsafe.common.scenario import Scenario
 from ridsafe.tools.run.family_launches import PadChoice, pad_offsets_enu_m
 from ridsafe.tools.run.scenario import load_scenario_file
 from ridsafe.tools.run.scenario_family import (
@@ -156,3 +158,58 @@ def test_cruise_altitude_by_heading_layers_the_traffic_and_keeps_the_draws() -> 
             north = b.goal_enu_m[1] - b.start_enu_m[1]
             assert b.cruise_alt_m == (30.0 if north >= 0.0 else 85.0)
         assert {a.cruise_alt_m for a in by_heading.aircraft} == {30.0, 85.0}
+
+
+TILED = dataclasses.replace(FAMILY, tile_capacity=16)
+
+
+def test_up_to_the_tile_capacity_a_tiled_family_draws_the_same_scenarios() -> None:
+    """The paper's densities are drawn as before: a capacity of 16 changes nothing at 4-16."""
+    for n_aircraft in (4, 8, 12, 16):
+        for seed in range(5):
+            assert generate(BASE, n_aircraft, seed, TILED) == generate(
+                BASE, n_aircraft, seed, FAMILY
+            )
+
+
+@pytest.mark.parametrize(("n_aircraft", "per_side"), [(17, 2), (64, 2), (65, 3), (128, 3)])
+def test_more_aircraft_than_a_tile_holds_fly_on_copies_of_the_area(
+    n_aircraft: int, per_side: int
+) -> None:
+    """k x k copies of the square kilometre, each with the three depots where they stand in
+    theirs: every copy launches its share of the aircraft (at most the capacity), no depot
+    launches faster than the paper's, and every pad and site lies inside the larger area."""
+    sized = TILED.sized(n_aircraft)
+    assert sized.half_width_m == per_side * FAMILY.half_width_m
+    assert len(sized.depots_enu_m) == 3 * per_side**2
+    s = generate(BASE, n_aircraft, 3, TILED)
+    assert len(s.aircraft) == n_aircraft
+    copies = per_side**2
+    depot_of = [sized.depots_enu_m.index(a_depot) for a_depot in _depots(s, sized)]
+    copy_of = np.array(depot_of) % copies
+    counts = np.bincount(copy_of, minlength=copies)
+    assert counts.max() <= 16 and counts.max() - counts.min() <= 1
+    for a, depot_index, copy in zip(s.aircraft, depot_of, copy_of, strict=True):
+        depot = np.array(sized.depots_enu_m[depot_index])
+        corner = np.array([copy % per_side, copy // per_side]) * 2 * FAMILY.half_width_m
+        # the depot stands in its copy where an original depot stands in the original area
+        in_copy = depot - (*corner, 0.0) + (sized.half_width_m - FAMILY.half_width_m)
+        assert (*in_copy[:2], 0.0) in FAMILY.depots_enu_m
+        assert np.hypot(*(np.array(a.start_enu_m) - depot)[:2]) <= 2 * FAMILY.pad_spacing_m + 1e-6
+        assert all(abs(c) <= sized.half_width_m for c in (*a.start_enu_m[:2], *a.goal_enu_m[:2]))
+        assert FAMILY.min_trip_m <= math.dist(a.start_enu_m[:2], a.goal_enu_m[:2])
+    assert max(a.departure_s for a in s.aircraft) <= 20.0  # the paper's 16: 6 per depot, 4 s
+
+
+def test_a_tile_capacity_below_one_is_refused() -> None:
+    with pytest.raises(FieldValueError, match="tile_capacity"):
+        FamilyConfig(tile_capacity=0)
+
+
+def _depots(s: Scenario, family: FamilyConfig) -> list[tuple[float, float, float]]:
+    """Each aircraft's depot: the family's depot nearest its pad."""
+    depots = np.array(family.depots_enu_m)
+    return [
+        family.depots_enu_m[int(np.argmin(np.hypot(*(depots - a.start_enu_m)[:, :2].T)))]
+        for a in s.aircraft
+    ]
