@@ -19,8 +19,8 @@ More aircraft than ``tile_capacity`` (when set) get more ground: the family is d
 copies of the area with their depots (``FamilyConfig.sized``), the cadence, pads, trips and
 deadline as above. Without it the area stays and only the cadence adapts (``family_launches``),
 so 64 aircraft fly four times the paper's densest traffic (``docs/results/dense_traffic.md``).
-The one spoofer's line then crosses the larger area near its centre;
-``adversaries.spoofer_count`` adds more.
+The one spoofer's line then starts at the larger area's edge (at 2 km x 2 km it does not reach
+the centre within 120 s); ``adversaries.spoofer_count`` adds more.
 
 The spoofer aims at the traffic, as an adversary would: ``spoofer_candidate_lines`` lines are
 drawn, and it flies the one that the benign aircraft's nominal flights (straight from pad to
