@@ -90,4 +90,6 @@ def test_a_spoofer_hovering_over_parked_aircraft_stays_in_its_region_with_the_gr
     with_ground = [_containment(s, k, 0.0) for s, k in cases]
     without = [_containment(s, k, None) for s, k in cases]
     assert np.mean(with_ground) >= 0.95 and min(with_ground) >= 0.9
-    assert np.mean(without) < 0.85  # the failure the ground removes
+    # The failure the ground removes: with three parked receivers the estimate falls into the
+    # mirror image below them on some seeds (two of four at about 0.5).
+    assert min(without) < 0.6

@@ -3,6 +3,8 @@ bookkeeping against numpy and the containment reference."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -15,6 +17,7 @@ from ridsafe.gcs.localisation.gaussian_sum import (
     _split_along,
     moment_match,
     moment_match_reference,
+    reweigh,
 )
 from ridsafe.gcs.pipeline_config import PipelineConfig
 from ridsafe.gcs.tracking import imm
@@ -40,6 +43,36 @@ def test_huber_split_preserves_the_first_two_moments() -> None:
     assert e @ parts[0].P[0, :3, :3] @ e == pytest.approx(
         (1 - 2 * weights[0] * 1.0575154134058**2) * var_e
     )
+
+
+def test_without_memory_the_weights_are_plain_bayes() -> None:
+    prior, loglik = np.array([0.7, 0.2, 0.1]), np.array([-1.0, 0.5, -3.0])
+    posterior = prior * np.exp(loglik)
+    np.testing.assert_allclose(reweigh(prior, loglik, 1.0, 0.0), posterior / posterior.sum())
+
+
+def test_weights_the_receptions_cannot_tell_apart_drift_back_together() -> None:
+    """Equal likelihoods: the log-ratio fades as exp(-t / memory), so 1e-3 against 0.999
+    is 1 : 1 within a few memories; with memory 0 it would stay 1e-3 for ever."""
+    w, equal = np.array([0.999, 1e-3]), np.zeros(2)
+    ratio0 = math.log(w[0] / w[1])
+    for _ in range(5):  # 5 claims, 1 s apart, memory 5 s: the log-ratio times e^-1
+        w = reweigh(w, equal, 1.0, 5.0)
+    assert math.log(w[0] / w[1]) == pytest.approx(ratio0 * math.exp(-1.0))
+    for _ in range(25):
+        w = reweigh(w, equal, 1.0, 5.0)
+    assert w[1] > 0.4
+    np.testing.assert_allclose(reweigh(np.array([0.999, 1e-3]), equal, 30.0, 0.0), [0.999, 1e-3])
+
+
+def test_a_hypothesis_the_receptions_keep_rejecting_still_goes() -> None:
+    """A likelihood ratio of e^-3 per claim, 1 s apart, memory 5 s: the log-ratio settles at
+    -3 / (1 - e^-0.2) = -16.5, far under ``prune_weight``."""
+    w, loglik = np.array([0.5, 0.5]), np.array([0.0, -3.0])
+    for _ in range(60):
+        w = reweigh(w, loglik, 1.0, 5.0)
+    assert math.log(w[1] / w[0]) == pytest.approx(-3.0 / (1.0 - math.exp(-0.2)), rel=1e-3)
+    assert w[1] < PipelineConfig().rssi_filter.prune_weight
 
 
 def _localiser(seeds: list[GridSeed]) -> GaussianSumLocaliser:
