@@ -42,6 +42,7 @@ def test_defaults_are_the_papers_where_it_gives_them() -> None:
         (lambda: ForcedAlertConfig(enabled=True), "uas_id"),
         (lambda: RssiFilterConfig(altitude_hypotheses_m=()), "altitude_hypotheses_m"),
         (lambda: RssiFilterConfig(max_hypotheses=2), "max_hypotheses"),
+        (lambda: RssiFilterConfig(weight_memory_s=-1.0), "weight_memory_s"),
         (lambda: PipelineConfig(rssi_sigma_db=0.0), "rssi_sigma_db"),
     ],
 )

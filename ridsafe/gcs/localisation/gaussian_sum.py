@@ -23,7 +23,7 @@ one of them and then reports a small covariance around the wrong place. The sum 
   spoofer for 30 s). With the memory, weights equal in likelihood drift back together within
   a few ``weight_memory_s`` and the region covers both images; a hypothesis the receptions
   keep rejecting still goes (a likelihood ratio of e^-3 per 1 s claim holds it at e^-16.5
-  with 5 s). ``tests/gcs/localisation/test_gaussian_sum.py``.
+  with 5 s). ``tests/gcs/test_weight_memory.py``, ``tests/gcs/localisation/test_gaussian_sum.py``.
 
 - output (region, track) is the moment-matched mixture::
 
