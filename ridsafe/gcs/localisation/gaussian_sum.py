@@ -179,6 +179,9 @@ class GaussianSumLocaliser:
         prior = Gaussian(np.stack([p[0] for p in priors]), np.stack([p[1] for p in priors]))
         self.state = imm.initial_state(prior, 3, self.model, cfg.imm.mu0, t_s)
         self.weights = np.array([s.weight for s in seeds])
+        #: When the weights last took a claim's likelihood (their memory fades from then:
+        #: an update that fails has moved the state's time, not theirs).
+        self.weighed_s = t_s
         self._prune()
         self.power_jitter: PowerJitter | None = None
         if f.tx_power_jitter == "adaptive":
@@ -204,9 +207,7 @@ class GaussianSumLocaliser:
         meas = RssiMeasurement(
             claim.rx_p_enu_m, claim.rssi_dbm, self.cfg.localisation_sigma_db, f.rx_position_sigma_m
         )
-        t_last = self.state.t_s
         self.state = imm.predict(self.state, self.model, max(claim.t_s, self.state.t_s))
-        elapsed_s = self.state.t_s - t_last
         fused = imm.merge(self.state, self.model)
         mixture = moment_match(self.weights, fused)
         if self.power_jitter is not None:
@@ -219,7 +220,9 @@ class GaussianSumLocaliser:
         if out is None:
             return False
         self.state, loglik = out
+        elapsed_s = max(self.state.t_s - self.weighed_s, 0.0)
         self.weights = reweigh(self.weights, loglik, elapsed_s, f.weight_memory_s)
+        self.weighed_s = self.state.t_s
         self._prune()
         fused = imm.merge(self.state, self.model)
         if f.ground_z_enu_m is not None:

@@ -75,8 +75,8 @@ def test_a_hypothesis_the_receptions_keep_rejecting_still_goes() -> None:
     assert w[1] < PipelineConfig().rssi_filter.prune_weight
 
 
-def _localiser(seeds: list[GridSeed]) -> GaussianSumLocaliser:
-    return GaussianSumLocaliser(PipelineConfig(), seeds, 0.0)
+def _localiser(seeds: list[GridSeed], t_s: float = 0.0) -> GaussianSumLocaliser:
+    return GaussianSumLocaliser(PipelineConfig(), seeds, t_s)
 
 
 def _seed(z: float, w: float, xy: tuple[float, float] = (0.0, 0.0)) -> GridSeed:
@@ -99,8 +99,7 @@ def test_the_sum_tracks_a_transmitter_and_reports_the_mixture() -> None:
     rx = np.column_stack((rng.uniform(-500, 500, (12, 2)), rng.uniform(30, 100, 12)))
     p0, v = np.array([-300.0, 0.0, 60.0]), np.array([7.0, 0.0, 0.0])
     claims = [_claim(float(t), p0 + v * t, rx, rng) for t in range(40)]
-    loc = _localiser(grid_posterior(claims[:3], (20.0, 60.0, 100.0), 1.0))
-    loc.state = ImmState(loc.state.modes, loc.state.mu, 2.0)
+    loc = _localiser(grid_posterior(claims[:3], (20.0, 60.0, 100.0), 1.0), t_s=2.0)
     for claim in claims[3:]:
         assert loc.update(claim)
         assert loc.size <= PipelineConfig().rssi_filter.max_hypotheses
@@ -111,6 +110,34 @@ def test_the_sum_tracks_a_transmitter_and_reports_the_mixture() -> None:
     assert np.linalg.norm(fused.x[0, 3:6] - v) < 2.0
     assert mu.sum() == pytest.approx(1.0)
     assert loc.weights.sum() == pytest.approx(1.0)
+
+
+def test_a_failed_update_does_not_shorten_the_weights_memory(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The claim at 1 s is rejected (the IPLF gives up): the state was predicted to 1 s, but
+    the weights' memory fades over the 2 s since they last took a likelihood."""
+    rng = np.random.default_rng(5)
+    rx = np.column_stack((rng.uniform(-500, 500, (12, 2)), rng.uniform(30, 100, 12)))
+    p0 = np.array([-300.0, 0.0, 60.0])
+    loc = _localiser([_seed(20.0, 0.5, (-300.0, 0.0)), _seed(100.0, 0.5, (-300.0, 0.0))])
+    faded_over: list[float] = []
+
+    def recording_reweigh(
+        weights: np.ndarray, loglik: np.ndarray, elapsed_s: float, memory_s: float
+    ) -> np.ndarray:
+        faded_over.append(elapsed_s)
+        return reweigh(weights, loglik, elapsed_s, memory_s)
+
+    monkeypatch.setattr("ridsafe.gcs.localisation.gaussian_sum.reweigh", recording_reweigh)
+    iplf = loc._iplf
+    monkeypatch.setattr(loc, "_iplf", lambda fused, meas: None)
+    assert not loc.update(_claim(1.0, p0, rx, rng))
+    assert loc.state.t_s == 1.0 and faded_over == []
+    monkeypatch.setattr(loc, "_iplf", iplf)
+    assert loc.update(_claim(2.0, p0, rx, rng))
+    assert loc.update(_claim(2.5, p0, rx, rng))
+    assert faded_over == pytest.approx([2.0, 0.5])
 
 
 def test_mixture_kernels_match_numpy() -> None:
