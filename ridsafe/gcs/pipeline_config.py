@@ -403,6 +403,13 @@ class TrackConfig:
     #: to change instead of for a lucky window; each at most the claims kept
     #: (``max(backfill_s, detection.window_s)``). (2.5,): the paper-era start.
     init_spans_s: tuple[float, ...] = (2.5,)
+    #: RSSI_IMM: a claim heard by at least this many receivers may take part in a track
+    #: start (the detectors need ``multilateration.min_receivers``, 4). One claim heard by
+    #: three leaves the transmitter anywhere along a curve, but a window of them does not
+    #: once the receivers have moved, and the grid posterior's spread (``max_init_std_m``)
+    #: decides whether a window localises. With 4, an alerted spoofer heard by three
+    #: aircraft had no region for up to a minute (path-loss exponent 3, 8 aircraft).
+    init_min_receivers: int = 3
     #: Receptions by receivers lower than this (m above the ground) are left out of the
     #: tracks (their start and updates); the detectors keep them. 0 keeps every reception.
     #: Aircraft on their pads hear a transmitter through the ground's reflection, and on a
@@ -427,6 +434,11 @@ class TrackConfig:
             )
         check_non_negative("coast_max_radius_m", self.coast_max_radius_m)
         check_non_negative("min_receiver_height_m", self.min_receiver_height_m)
+        if self.init_min_receivers < 3:
+            raise FieldValueError(
+                "init_min_receivers",
+                f"expected >= 3 (fewer cannot tell a direction), got {self.init_min_receivers}",
+            )
         for name in (
             "silence_timeout_s",
             "altitude_prior_std_m",

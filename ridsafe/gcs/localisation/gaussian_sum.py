@@ -428,12 +428,12 @@ def start(
     claims: Sequence[ObservedClaim], cfg: PipelineConfig, after_s: float = -math.inf
 ) -> tuple[GaussianSumLocaliser, int] | None:
     """The sum started from the first window of claims (oldest first, then shortest span first:
-    ``tracks.init_spans_s``) whose grid posterior is tight enough (``tracks.max_init_std_m``),
-    and how many of ``claims`` that consumed; None when no window is. Only windows ending
-    after ``after_s`` are tried."""
+    ``tracks.init_spans_s``; each claim heard by ``tracks.init_min_receivers``) whose grid
+    posterior is tight enough (``tracks.max_init_std_m``), and how many of ``claims`` that
+    consumed; None when no window is. Only windows ending after ``after_s`` are tried."""
     f = cfg.rssi_filter
     spans_s = cfg.tracks.init_spans_s
-    for used in init_windows(claims, cfg.multilateration.min_receivers, after_s, spans_s):
+    for used in init_windows(claims, cfg.tracks.init_min_receivers, after_s, spans_s):
         seeds = grid_posterior(
             used,
             f.altitude_hypotheses_m,
