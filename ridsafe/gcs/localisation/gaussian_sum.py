@@ -220,7 +220,7 @@ class GaussianSumLocaliser:
         if out is None:
             return False
         self.state, loglik = out
-        elapsed_s = max(self.state.t_s - self.weighed_s, 0.0)
+        elapsed_s = self.state.t_s - self.weighed_s  # never negative: the state only advances
         self.weights = reweigh(self.weights, loglik, elapsed_s, f.weight_memory_s)
         self.weighed_s = self.state.t_s
         self._prune()
