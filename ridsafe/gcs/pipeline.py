@@ -66,6 +66,7 @@ from ridsafe.gcs.pipeline_api import (
     TrackEstimate,
     UnsafeRegion,
     airborne_receptions,
+    for_tracks,
     readonly,
 )
 from ridsafe.gcs.pipeline_config import PipelineConfig, TrackConfig
@@ -384,7 +385,7 @@ class EstimationPipeline:
 
     def _for_tracks(self, claim: ObservedClaim) -> ObservedClaim:
         """The claim's receptions a track uses (``tracks.min_receiver_height_m``)."""
-        return airborne_receptions(claim, self.config.tracks.min_receiver_height_m)
+        return for_tracks(airborne_receptions(claim, self.config.tracks.min_receiver_height_m))
 
     def _delete_silent(self, now_s: float) -> tuple[list[str], list[AlertChange]]:
         timeout = self.config.tracks.silence_timeout_s

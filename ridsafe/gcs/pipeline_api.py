@@ -56,6 +56,10 @@ class ObservedClaim:
     rx_p_enu_m: FloatArray
     rx_t_s: FloatArray
     rssi_dbm: FloatArray
+    #: The RSSI the tracks use where it differs from what the detectors test (None: the
+    #: same). The calibration's antenna gain by elevation is taken at the claimed position:
+    #: right for testing the claim, wrong for locating a transmitter that lies about it.
+    track_rssi_dbm: FloatArray | None = None
 
     @functools.cached_property
     def t_s(self) -> float:
@@ -84,7 +88,17 @@ def receptions(claim: ObservedClaim, keep: NDArray[np.bool_]) -> ObservedClaim:
         rx_p_enu_m=readonly(claim.rx_p_enu_m[keep]),
         rx_t_s=readonly(claim.rx_t_s[keep]),
         rssi_dbm=readonly(claim.rssi_dbm[keep]),
+        track_rssi_dbm=None
+        if claim.track_rssi_dbm is None
+        else readonly(claim.track_rssi_dbm[keep]),
     )
+
+
+def for_tracks(claim: ObservedClaim) -> ObservedClaim:
+    """The claim as the tracks see it (``track_rssi_dbm`` when set)."""
+    if claim.track_rssi_dbm is None:
+        return claim
+    return dataclasses.replace(claim, rssi_dbm=claim.track_rssi_dbm, track_rssi_dbm=None)
 
 
 def airborne_receptions(claim: ObservedClaim, min_height_m: float) -> ObservedClaim:

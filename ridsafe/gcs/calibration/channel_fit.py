@@ -57,6 +57,18 @@ class ChannelEstimate:
     sigma_db: float  # root-mean-square residual, corrected for the parameters fitted
     robust_scale_db: float  # the Student-t scale s
     n_samples: int
+    #: The links' gain at each elevation knot (dB, 0 at the first, level), when fitted.
+    elevation_knots_deg: tuple[float, ...] = ()
+    elevation_gain_db: tuple[float, ...] = ()
+
+    def elevation_gain_of(self, elevation_deg: FloatArray) -> FloatArray:
+        """The fitted gain (dB) at links of ``elevation_deg`` (0 without a fit of it)."""
+        if not self.elevation_knots_deg:
+            return np.zeros_like(elevation_deg)
+        gain: FloatArray = np.interp(
+            elevation_deg, self.elevation_knots_deg, self.elevation_gain_db
+        )
+        return gain
 
     def bias_of(self, sysids: IntArray) -> FloatArray:
         """``(k,)`` biases of receivers ``sysids`` (0 for a receiver never seen)."""
@@ -82,21 +94,32 @@ def fit_channel(
     distance_m: FloatArray,
     rssi_dbm: FloatArray,
     cfg: CalibrationConfig,
+    elevation_deg: FloatArray | None = None,
 ) -> ChannelEstimate:
-    """Fit ``(K,)`` labelled receptions (see the module docstring)."""
+    """Fit ``(K,)`` labelled receptions (see the module docstring); with
+    ``cfg.elevation_knots_deg`` and the links' ``elevation_deg``, a gain by elevation too
+    (piecewise linear between the knots, 0 at level)."""
     tx_ids, tx_col = np.unique(tx_sysid, return_inverse=True)
     rx_ids, rx_col = np.unique(rx_sysid, return_inverse=True)
     k, n_tx, n_rx = rssi_dbm.shape[0], tx_ids.shape[0], rx_ids.shape[0]
-    design = np.zeros((k, n_tx + n_rx + 1))
+    knots = cfg.elevation_knots_deg if elevation_deg is not None else ()
+    n_elev = max(len(knots) - 1, 0)
+    i_exp = n_tx + n_rx
+    n_params = i_exp + 1 + n_elev
+    design = np.zeros((k, n_params))
     rows = np.arange(k)
     design[rows, tx_col] = 1.0
     design[rows, n_tx + rx_col] = 1.0
-    design[:, -1] = -10.0 * np.log10(np.maximum(distance_m, 1.0))
-    prior_precision = np.zeros(n_tx + n_rx + 1)
-    prior_mean = np.zeros(n_tx + n_rx + 1)
-    prior_precision[n_tx : n_tx + n_rx] = 1.0 / cfg.receiver_bias_prior_std_db**2
-    prior_precision[-1] = 1.0 / cfg.exponent_prior_std**2
-    prior_mean[-1] = cfg.exponent_prior
+    design[:, i_exp] = -10.0 * np.log10(np.maximum(distance_m, 1.0))
+    if n_elev:
+        assert elevation_deg is not None
+        design[:, i_exp + 1 :] = _hat_basis(elevation_deg, knots)[:, 1:]
+    prior_precision = np.zeros(n_params)
+    prior_mean = np.zeros(n_params)
+    prior_precision[n_tx:i_exp] = 1.0 / cfg.receiver_bias_prior_std_db**2
+    prior_precision[i_exp] = 1.0 / cfg.exponent_prior_std**2
+    prior_mean[i_exp] = cfg.exponent_prior
+    prior_precision[i_exp + 1 :] = 1.0 / cfg.elevation_gain_prior_std_db**2
     prior_precision[:n_tx] = 1e-8  # flat, but keeps the system regular
     weights = np.ones(k)
     scale2 = 1.0
@@ -113,16 +136,30 @@ def fit_channel(
     covariance = np.linalg.inv(normal)
     residual = rssi_dbm - design @ theta
     return ChannelEstimate(
-        exponent=float(theta[-1]),
-        exponent_std=float(np.sqrt(covariance[-1, -1])),
-        rx_bias_db={
-            int(s): float(b) for s, b in zip(rx_ids, theta[n_tx : n_tx + n_rx], strict=True)
-        },
+        exponent=float(theta[i_exp]),
+        exponent_std=float(np.sqrt(covariance[i_exp, i_exp])),
+        rx_bias_db={int(s): float(b) for s, b in zip(rx_ids, theta[n_tx:i_exp], strict=True)},
         tx_level_db={int(s): float(p) for s, p in zip(tx_ids, theta[:n_tx], strict=True)},
-        sigma_db=float(np.sqrt(np.sum(residual**2) / max(k - (n_tx + n_rx + 1), 1))),
+        sigma_db=float(np.sqrt(np.sum(residual**2) / max(k - n_params, 1))),
         robust_scale_db=float(np.sqrt(scale2)),
         n_samples=k,
+        elevation_knots_deg=tuple(knots),
+        elevation_gain_db=(0.0, *(float(g) for g in theta[i_exp + 1 :])) if n_elev else (),
     )
+
+
+def _hat_basis(x: FloatArray, knots: tuple[float, ...]) -> FloatArray:
+    """``(K, len(knots))``: the piecewise-linear interpolation weights of each x on the
+    knots (x clipped to their range); row k times the knots' values is the interpolant."""
+    xs = np.clip(x, knots[0], knots[-1])
+    j = np.clip(np.searchsorted(knots, xs, side="right") - 1, 0, len(knots) - 2)
+    lo, hi = np.asarray(knots)[j], np.asarray(knots)[j + 1]
+    t = (xs - lo) / (hi - lo)
+    out = np.zeros((x.shape[0], len(knots)))
+    rows = np.arange(x.shape[0])
+    out[rows, j] = 1.0 - t
+    out[rows, j + 1] = t
+    return out
 
 
 @dataclass(frozen=True)

@@ -9,6 +9,7 @@ calibration replaces once it has enough labelled receptions for the parameters i
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 from typing import Literal
 
@@ -75,6 +76,17 @@ class CalibrationConfig:
     #: Receptions by receivers lower than this (m above the ground) are left out of the fit
     #: and of detection and localisation (0 keeps them).
     min_receiver_height_m: float = 0.0
+    #: The antennas' gain off level, learned: a second fit gives the links' elevation
+    #: (|asin(dz / d)|, both antennas' patterns together) a gain, piecewise linear between
+    #: these knots (degrees, ascending, the first 0: level links carry the levels), each
+    #: knot's value with prior N(0, ``elevation_gain_prior_std_db``^2); the detectors test
+    #: each claim on its RSSI less the gain at its receivers' elevation from the claimed
+    #: position (``pipeline.py``). An installed antenna is not isotropic: a vertical
+    #: half-wave dipole loses about 4 dB at 45 degrees at each end. The knots' parameters do
+    #: not count toward the warm-up (``samples_per_parameter``): their prior holds them at
+    #: 0 dB until steep links are heard. Empty: no elevation gain.
+    elevation_knots_deg: tuple[float, ...] = (0.0, 10.0, 20.0, 30.0, 45.0, 60.0, 90.0)
+    elevation_gain_prior_std_db: float = 10.0
     #: Priors: path-loss exponent N(prior, std^2), each receiver's bias N(0, std^2) (dB).
     exponent_prior: float = 2.0
     exponent_prior_std: float = 1.0
@@ -103,7 +115,23 @@ class CalibrationConfig:
             check_positive(name, getattr(self, name))
         for name in ("null_window_s", "null_margin"):
             check_positive(name, getattr(self, name))
-        for name in ("receiver_bias_prior_std_db", "student_dof", "sigma_floor_db"):
+        knots = self.elevation_knots_deg
+        if knots and (
+            knots[0] != 0.0
+            or len(knots) < 2
+            or any(b <= a for a, b in itertools.pairwise(knots))
+            or knots[-1] > 90.0
+        ):
+            raise FieldValueError(
+                "elevation_knots_deg",
+                f"expected 0 first, then ascending up to 90 degrees, got {list(knots)}",
+            )
+        for name in (
+            "receiver_bias_prior_std_db",
+            "elevation_gain_prior_std_db",
+            "student_dof",
+            "sigma_floor_db",
+        ):
             check_positive(name, getattr(self, name))
         check_non_negative("samples_per_parameter", self.samples_per_parameter)
         check_non_negative("min_time_s", self.min_time_s)

@@ -30,7 +30,7 @@ from ridsafe.gcs.pipeline_api import (
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["CooperativeLabeller", "LabelledReceptions"]
+__all__ = ["CooperativeLabeller", "LabelledReceptions", "link_elevation_deg"]
 
 
 class LabelledReceptions:
@@ -43,6 +43,7 @@ class LabelledReceptions:
         self._rx = np.zeros(max_samples, dtype=np.int64)
         self._distance_m = np.zeros(max_samples)
         self._rssi_dbm = np.zeros(max_samples)
+        self._elevation_deg = np.zeros(max_samples)
         self._next = 0  # where the next reception goes
         self._count = 0
 
@@ -65,17 +66,34 @@ class LabelledReceptions:
     def rssi_dbm(self) -> FloatArray:
         return self._rssi_dbm[: self._count]
 
+    @property
+    def elevation_deg(self) -> FloatArray:
+        """The link's elevation, |asin(dz / d)| (degrees, 0 level, 90 straight up or down)."""
+        return self._elevation_deg[: self._count]
+
     def n_parameters(self) -> int:
         """Parameters a channel fit of these receptions has (``channel_fit.py``): the
         exponent, a bias per receiver and a level per transmitter."""
         n_rx, n_tx = np.unique(self.rx_sysid).shape[0], np.unique(self.tx_sysid).shape[0]
         return 1 + int(n_rx) + int(n_tx)
 
-    def add(self, tx: int, rx: NDArray[np.int64], distance_m: FloatArray, rssi: FloatArray) -> None:
-        """One transmitter's receptions (the newest ``max_samples`` of them)."""
+    def add(
+        self,
+        tx: int,
+        rx: NDArray[np.int64],
+        distance_m: FloatArray,
+        rssi: FloatArray,
+        elevation_deg: FloatArray | None = None,
+    ) -> None:
+        """One transmitter's receptions (the newest ``max_samples`` of them); level links
+        unless ``elevation_deg`` says otherwise."""
         newest = slice(max(rx.shape[0] - self.max_samples, 0), None)
         tx_column = np.full(rx[newest].shape[0], tx, dtype=np.int64)
-        self.add_rows(tx_column, rx[newest], distance_m[newest], rssi[newest])
+        if elevation_deg is None:
+            elevation_deg = np.zeros(rx.shape[0])
+        self.add_rows(
+            tx_column, rx[newest], distance_m[newest], rssi[newest], elevation_deg[newest]
+        )
 
     def add_claims(self, labelled: Sequence[tuple[int, ObservedClaim]]) -> None:
         """``add`` the receptions of each (transmitter, claim) in order, the distance from
@@ -87,23 +105,35 @@ class LabelledReceptions:
         counts = [claim.n_receivers for claim in claims]
         if sum(counts) > self.max_samples:
             for tx, claim in labelled:
-                self.add(tx, claim.rx_sysid, _distances_m(claim), claim.rssi_dbm)
+                offsets = claim.rx_p_enu_m - claim.claimed_p_enu_m
+                distance_m = _row_norms(offsets)
+                elevation = link_elevation_deg(offsets[:, 2], distance_m)
+                self.add(tx, claim.rx_sysid, distance_m, claim.rssi_dbm, elevation)
             return
         claimed = np.repeat(np.stack([claim.claimed_p_enu_m for claim in claims]), counts, axis=0)
         offsets = np.concatenate([claim.rx_p_enu_m for claim in claims]) - claimed
+        distance_m = _row_norms(offsets)
         self.add_rows(
             np.repeat(np.array([tx for tx, _ in labelled], dtype=np.int64), counts),
             np.concatenate([claim.rx_sysid for claim in claims]),
-            _row_norms(offsets),
+            distance_m,
             np.concatenate([claim.rssi_dbm for claim in claims]),
+            link_elevation_deg(offsets[:, 2], distance_m),
         )
 
     def add_rows(
-        self, tx: NDArray[np.int64], rx: NDArray[np.int64], distance_m: FloatArray, rssi: FloatArray
+        self,
+        tx: NDArray[np.int64],
+        rx: NDArray[np.int64],
+        distance_m: FloatArray,
+        rssi: FloatArray,
+        elevation_deg: FloatArray | None = None,
     ) -> None:
         """Receptions as columns, at most ``max_samples`` of them, written in order from the
         next free row (wrapping)."""
         k = rx.shape[0]
+        if elevation_deg is None:
+            elevation_deg = np.zeros(k)
         start = self._next
         first = min(k, self.max_samples - start)
         for column, values in (
@@ -111,6 +141,7 @@ class LabelledReceptions:
             (self._rx, rx),
             (self._distance_m, distance_m),
             (self._rssi_dbm, rssi),
+            (self._elevation_deg, elevation_deg),
         ):
             column[start : start + first] = values[:first]
             column[: k - first] = values[first:]
@@ -125,9 +156,11 @@ def _airborne(claim: ObservedClaim, min_height_m: float) -> ObservedClaim:
     return airborne_receptions(claim, min_height_m)
 
 
-def _distances_m(claim: ObservedClaim) -> FloatArray:
-    """Each receiver's distance to the claimed position (m)."""
-    return _row_norms(claim.rx_p_enu_m - claim.claimed_p_enu_m)
+def link_elevation_deg(dz_m: FloatArray, distance_m: FloatArray) -> FloatArray:
+    """|asin(dz / d)| in degrees: how far off level a link runs (0 level, 90 vertical)."""
+    ratio = np.abs(dz_m) / np.maximum(distance_m, 1.0)
+    out: FloatArray = np.degrees(np.arcsin(np.minimum(ratio, 1.0)))
+    return out
 
 
 def _row_norms(offsets: FloatArray) -> FloatArray:

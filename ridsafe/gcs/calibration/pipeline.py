@@ -35,6 +35,17 @@ exactly as with calibration off, but for the cooperative cross-check and the fir
 floor at the check; the check is repeated every ``refit_s`` until an alert is raised, and
 the first that rejects the configured channel fits the channel and replays the held claims
 into a pipeline on the fit, from then on as ``enabled: true``.
+
+**Antennas are not isotropic** (``calibration.elevation_knots_deg``): a dipole on an
+airframe loses several dB toward steep links, a loss the plain fit can only count as noise,
+so its sigma grows and the detectors lose their power (vertical dipoles, 16 aircraft: 6 runs
+in 10 never alerted). A second fit gives the links a gain by elevation too
+(``channel_fit.py``), and the detectors test each claim on its RSSI less that gain at the
+*claimed* position, with that fit's (smaller) sigma: a claim is tested against what its own
+position predicts. The tracks cannot do the same (a liar's claimed elevation is not its
+elevation) and keep the plain fit's mapping (``ObservedClaim.track_rssi_dbm``) and sigma;
+their honest inflation must be measured on that RSSI, so the detectors run once more on it
+(``_TrackNoise``), their results used for nothing else.
 """
 
 from __future__ import annotations
@@ -45,6 +56,7 @@ from collections import deque
 from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ridsafe.gcs.calibration.channel_fit import (
     ChannelEstimate,
@@ -53,8 +65,9 @@ from ridsafe.gcs.calibration.channel_fit import (
     fit_channel,
 )
 from ridsafe.gcs.calibration.config import CalibrationConfig
-from ridsafe.gcs.calibration.cooperative import CooperativeLabeller
+from ridsafe.gcs.calibration.cooperative import CooperativeLabeller, link_elevation_deg
 from ridsafe.gcs.calibration.review import CalibratedReview
+from ridsafe.gcs.detection.monitor import TransmitterMonitor, observe_batch
 from ridsafe.gcs.pipeline import EstimationPipeline
 from ridsafe.gcs.pipeline_api import (
     ChannelDecision,
@@ -62,12 +75,15 @@ from ridsafe.gcs.pipeline_api import (
     GcsPipeline,
     ObservedClaim,
     airborne_receptions,
+    for_tracks,
     readonly,
     reception_bounds,
 )
 from ridsafe.gcs.pipeline_config import PipelineConfig
 
 logger = logging.getLogger(__name__)
+
+FloatArray = NDArray[np.float64]
 
 __all__ = ["CalibratingPipeline", "make_pipeline", "to_free_space", "to_free_space_all"]
 
@@ -81,20 +97,54 @@ def to_free_space(
 
 
 def to_free_space_all(
-    claims: Sequence[ObservedClaim], estimate: ChannelEstimate, pivot_dbm: float = 0.0
+    claims: Sequence[ObservedClaim],
+    estimate: ChannelEstimate,
+    pivot_dbm: float = 0.0,
+    elevation: ChannelEstimate | None = None,
 ) -> list[ObservedClaim]:
-    """``to_free_space`` of each claim, the cycle's receptions mapped in one pass."""
+    """``to_free_space`` of each claim, the cycle's receptions mapped in one pass. With
+    ``elevation`` (a fit with the links' gain by elevation) the detectors get the RSSI mapped
+    by it, the gain taken at the claimed position (a test of the claim), and the tracks
+    (``track_rssi_dbm``) the RSSI mapped by ``estimate`` (they cannot know a liar's
+    elevation)."""
     if not claims:
         return []
-    rssi_dbm = np.concatenate([claim.rssi_dbm for claim in claims])
-    rx_sysid = np.concatenate([claim.rx_sysid for claim in claims])
-    scaled = (2.0 / estimate.exponent) * (rssi_dbm - estimate.bias_of(rx_sysid) - pivot_dbm)
-    mapped = readonly(scaled + pivot_dbm)
     bounds = reception_bounds(claims).tolist()
+    mapped = _mapped(claims, estimate, pivot_dbm, with_elevation=False)
+    if elevation is None:
+        return [
+            dataclasses.replace(claim, rssi_dbm=mapped[bounds[j] : bounds[j + 1]])
+            for j, claim in enumerate(claims)
+        ]
+    for_test = _mapped(claims, elevation, pivot_dbm, with_elevation=True)
     return [
-        dataclasses.replace(claim, rssi_dbm=mapped[bounds[j] : bounds[j + 1]])
+        dataclasses.replace(
+            claim,
+            rssi_dbm=for_test[bounds[j] : bounds[j + 1]],
+            track_rssi_dbm=mapped[bounds[j] : bounds[j + 1]],
+        )
         for j, claim in enumerate(claims)
     ]
+
+
+def _mapped(
+    claims: Sequence[ObservedClaim],
+    estimate: ChannelEstimate,
+    pivot_dbm: float,
+    with_elevation: bool,
+) -> FloatArray:
+    rssi_dbm = np.concatenate([claim.rssi_dbm for claim in claims])
+    rx_sysid = np.concatenate([claim.rx_sysid for claim in claims])
+    corrected = rssi_dbm - estimate.bias_of(rx_sysid)
+    if with_elevation and estimate.elevation_knots_deg:
+        counts = [claim.n_receivers for claim in claims]
+        claimed = np.repeat(np.stack([claim.claimed_p_enu_m for claim in claims]), counts, axis=0)
+        offsets = np.concatenate([claim.rx_p_enu_m for claim in claims]) - claimed
+        distance_m = np.sqrt(np.add.reduce(offsets * offsets, axis=1))
+        corrected = corrected - estimate.elevation_gain_of(
+            link_elevation_deg(offsets[:, 2], distance_m)
+        )
+    return readonly(pivot_dbm + (2.0 / estimate.exponent) * (corrected - pivot_dbm))
 
 
 class CalibratingPipeline:
@@ -109,6 +159,9 @@ class CalibratingPipeline:
         self.labeller = CooperativeLabeller(config.calibration)
         self.review = CalibratedReview(config.calibration, self.labeller)
         self.estimate: ChannelEstimate | None = None
+        #: The fit with the links' gain by elevation, the detectors' claims are mapped with
+        #: (module docstring; None without ``calibration.elevation_knots_deg``).
+        self.elevation_estimate: ChannelEstimate | None = None
         self.inner: EstimationPipeline | None = None
         self._held: deque[ObservedClaim] = deque()
         self._newest_held_s = 0.0
@@ -117,6 +170,7 @@ class CalibratingPipeline:
         self._configured_rejected = False
         self._rejection: ConfiguredChannelCheck | None = None  # the check that rejected it
         self._decision: ChannelDecision | None = None  # for this cycle's output
+        self._track_noise: _TrackNoise | None = None  # with an elevation fit
 
     @property
     def on_configured_channel(self) -> bool:
@@ -146,7 +200,11 @@ class CalibratingPipeline:
         h = self.config.calibration.min_receiver_height_m
         claims = [airborne_receptions(c, h) for c in claims]
         if self.estimate is not None:
-            claims = to_free_space_all(claims, self.estimate, self._pivot_dbm)
+            claims = to_free_space_all(
+                claims, self.estimate, self._pivot_dbm, self.elevation_estimate
+            )
+            if self._track_noise is not None:
+                self._track_noise.observe(claims)
         out = self.inner.step(now_s, claims)
         self._update_inflation(now_s)
         if self._decision is not None:
@@ -234,7 +292,10 @@ class CalibratingPipeline:
             return
         if not self.config.calibration.honest_covariance:
             return
-        inflation = self.review.localisation_inflation(now_s)
+        if self._track_noise is None:
+            inflation = self.review.localisation_inflation(now_s)
+        else:
+            inflation = self._track_noise.inflation(now_s)
         self.inner.config = dataclasses.replace(
             self.inner.config, localisation_noise_inflation=inflation
         )
@@ -261,13 +322,14 @@ class CalibratingPipeline:
         """Fit the channel to the labelled receptions; the decision goes to the output with
         the check that rejected the configured channel, if this fit follows one."""
         s = self.labeller.samples
-        estimate = fit_channel(
-            s.tx_sysid,
-            s.rx_sysid,
-            s.distance_m,
-            s.rssi_dbm,
-            self.config.calibration,
-        )
+        cal = self.config.calibration
+        plain = dataclasses.replace(cal, elevation_knots_deg=())
+        estimate = fit_channel(s.tx_sysid, s.rx_sysid, s.distance_m, s.rssi_dbm, plain)
+        self.elevation_estimate = None
+        if cal.elevation_knots_deg:
+            self.elevation_estimate = fit_channel(
+                s.tx_sysid, s.rx_sysid, s.distance_m, s.rssi_dbm, cal, s.elevation_deg
+            )
         logger.info(
             "channel calibrated on %d receptions: exponent %.2f +/- %.2f, sigma %.2f dB "
             "(robust scale %.2f dB), receiver biases std %.2f dB",
@@ -286,8 +348,57 @@ class CalibratingPipeline:
         return estimate
 
     def _calibrated_config(self, estimate: ChannelEstimate) -> PipelineConfig:
-        sigma = max(estimate.sigma_db, self.config.calibration.sigma_floor_db)
-        return dataclasses.replace(self.config, rssi_sigma_db=(2.0 / estimate.exponent) * sigma)
+        """The inner pipeline's config on the fit: its sigma in the mapped RSSI; with an
+        elevation fit the detectors' (that fit's) and the tracks' (the plain fit's) as the
+        inflation of it (module docstring)."""
+        floor = self.config.calibration.sigma_floor_db
+        sigma = (2.0 / estimate.exponent) * max(estimate.sigma_db, floor)
+        elevation = self.elevation_estimate
+        if elevation is None:
+            return dataclasses.replace(self.config, rssi_sigma_db=sigma)
+        tested = min((2.0 / elevation.exponent) * max(elevation.sigma_db, floor), sigma)
+        variance_ratio = (sigma / tested) ** 2
+        if self.config.calibration.honest_covariance:
+            tracks = dataclasses.replace(self.config, rssi_sigma_db=sigma)
+            self._track_noise = _TrackNoise(tracks, self.labeller, variance_ratio)
+        return dataclasses.replace(
+            self.config, rssi_sigma_db=tested, localisation_noise_inflation=variance_ratio
+        )
+
+
+class _TrackNoise:
+    """The localisers' inflation when the detectors test other RSSI than the tracks get (an
+    elevation fit; module docstring): the detectors once more, on the tracks' RSSI with the
+    tracks' sigma (``config``), so that the vouched claims' MLAT statistics (``review.py``)
+    measure the noise of the RSSI the localisers use. Their results decide nothing."""
+
+    def __init__(
+        self, config: PipelineConfig, labeller: CooperativeLabeller, variance_ratio: float
+    ) -> None:
+        self.config = config
+        #: (the tracks' sigma / the detectors' sigma)^2: the inner pipeline's rssi_sigma_db
+        #: is the detectors'.
+        self.variance_ratio = variance_ratio
+        self.review = CalibratedReview(config.calibration, labeller)
+        self._monitors: dict[str, TransmitterMonitor] = {}
+
+    def observe(self, claims: Sequence[ObservedClaim]) -> None:
+        """The cycle's mapped claims (``to_free_space_all``), as the tracks see them."""
+        seen = [for_tracks(claim) for claim in claims]
+        monitors = []
+        for claim in seen:
+            monitor = self._monitors.get(claim.uas_id)
+            if monitor is None:
+                monitor = self._monitors[claim.uas_id] = TransmitterMonitor(
+                    claim.uas_id, self.config
+                )
+            monitors.append(monitor)
+        for claim, results in zip(seen, observe_batch(monitors, seen), strict=True):
+            self.review(claim, results)
+
+    def inflation(self, now_s: float) -> float:
+        """The inner pipeline's ``localisation_noise_inflation``: of the detectors' sigma."""
+        return self.variance_ratio * self.review.localisation_inflation(now_s)
 
 
 def make_pipeline(config: PipelineConfig) -> GcsPipeline:
