@@ -68,7 +68,7 @@ from ridsafe.gcs.calibration.config import CalibrationConfig
 from ridsafe.gcs.calibration.cooperative import CooperativeLabeller, link_elevation_deg
 from ridsafe.gcs.calibration.review import CalibratedReview
 from ridsafe.gcs.detection.monitor import TransmitterMonitor, observe_batch
-from ridsafe.gcs.pipeline import EstimationPipeline
+from ridsafe.gcs.pipeline import FORGET_AFTER_S, EstimationPipeline
 from ridsafe.gcs.pipeline_api import (
     ChannelDecision,
     CycleOutput,
@@ -380,21 +380,31 @@ class _TrackNoise:
         #: is the detectors'.
         self.variance_ratio = variance_ratio
         self.review = CalibratedReview(config.calibration, labeller)
-        self._monitors: dict[str, TransmitterMonitor] = {}
+        self.monitors: dict[str, TransmitterMonitor] = {}
+        self._last_heard_s: dict[str, float] = {}
 
     def observe(self, claims: Sequence[ObservedClaim]) -> None:
-        """The cycle's mapped claims (``to_free_space_all``), as the tracks see them."""
+        """The cycle's mapped claims (``to_free_space_all``), as the tracks see them. A
+        transmitter silent for ``FORGET_AFTER_S`` is forgotten, as the inner pipeline
+        forgets it: a stream of new serials must not grow the memory."""
         seen = [for_tracks(claim) for claim in claims]
         monitors = []
         for claim in seen:
-            monitor = self._monitors.get(claim.uas_id)
+            monitor = self.monitors.get(claim.uas_id)
             if monitor is None:
-                monitor = self._monitors[claim.uas_id] = TransmitterMonitor(
+                monitor = self.monitors[claim.uas_id] = TransmitterMonitor(
                     claim.uas_id, self.config
                 )
             monitors.append(monitor)
+            last = self._last_heard_s.get(claim.uas_id, claim.t_s)
+            self._last_heard_s[claim.uas_id] = max(last, claim.t_s)
         for claim, results in zip(seen, observe_batch(monitors, seen), strict=True):
             self.review(claim, results)
+        if seen:
+            newest_s = max(self._last_heard_s.values())
+            for uas_id, last_s in list(self._last_heard_s.items()):
+                if newest_s - last_s > FORGET_AFTER_S:
+                    del self.monitors[uas_id], self._last_heard_s[uas_id]
 
     def inflation(self, now_s: float) -> float:
         """The inner pipeline's ``localisation_noise_inflation``: of the detectors' sigma."""

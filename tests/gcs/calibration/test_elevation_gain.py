@@ -14,7 +14,8 @@ from ridsafe.common.pathloss import dipole_gain_dbi
 from ridsafe.gcs.calibration.channel_fit import fit_channel
 from ridsafe.gcs.calibration.config import CalibrationConfig
 from ridsafe.gcs.calibration.cooperative import CooperativeLabeller, link_elevation_deg
-from ridsafe.gcs.calibration.pipeline import CalibratingPipeline, to_free_space_all
+from ridsafe.gcs.calibration.pipeline import CalibratingPipeline, _TrackNoise, to_free_space_all
+from ridsafe.gcs.pipeline import FORGET_AFTER_S
 from ridsafe.gcs.pipeline_api import ObservedClaim, for_tracks
 from ridsafe.gcs.pipeline_config import PipelineConfig
 from ridsafe.gcs.synthetic.traffic import Scene, Traffic, make_traffic
@@ -131,3 +132,15 @@ def test_the_detectors_sigma_follows_the_pattern_the_tracks_noise_does_not() -> 
     assert with_fit.inner.config.localisation_sigma_db == pytest.approx(
         without.inner.config.localisation_sigma_db, rel=0.1
     )
+
+
+def test_the_tracks_noise_forgets_a_transmitter_the_pipeline_forgets() -> None:
+    """The second detector pass keeps a transmitter's memory no longer than the inner
+    pipeline does (``FORGET_AFTER_S`` of silence): new serials must not grow it."""
+    receivers = {1: [300.0, 0.0, 60.0], 2: [0.0, 300.0, 60.0], 3: [-300.0, 0.0, 60.0]}
+    noise = _TrackNoise(PipelineConfig(), CooperativeLabeller(CFG), 1.0)
+    noise.observe([free_space_claim("OLD", 0.0, [0.0, 0.0, 60.0], receivers)])
+    noise.observe([free_space_claim("NEW", FORGET_AFTER_S, [0.0, 0.0, 60.0], receivers)])
+    assert set(noise.monitors) == {"OLD", "NEW"}
+    noise.observe([free_space_claim("NEW", FORGET_AFTER_S + 1.0, [0.0, 0.0, 60.0], receivers)])
+    assert set(noise.monitors) == {"NEW"}
