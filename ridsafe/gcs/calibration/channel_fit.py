@@ -16,6 +16,11 @@ and thresholds built from it stay honest; the plain RSS / K was 9 % low in std w
 aircraft at calibration time, enough for the window tests' 600 degrees of freedom to raise
 false alerts), next to the robust scale s.
 
+Given the links' elevations e_k (|asin(dz / d)|) and ``elevation_knots_deg``, the model gains
+a term g(e_k), piecewise linear between the knots with g = 0 at the first (level links carry
+the levels) and each other knot's value fitted with prior N(0, sigma_g^2): the antennas'
+patterns together (``pipeline.py`` says who uses which fit).
+
 ``check_configured_channel`` asks the other question first: do the labelled receptions fit
 the channel the GCS was configured with (free space, Gaussian noise of ``rssi_sigma_db`` plus
 the detectors' position term, a level per transmitter that the trackers estimate anyway)?
