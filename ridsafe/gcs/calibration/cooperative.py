@@ -30,7 +30,7 @@ from ridsafe.gcs.pipeline_api import (
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["CooperativeLabeller", "LabelledReceptions", "link_elevation_deg"]
+__all__ = ["CooperativeLabeller", "LabelledReceptions", "claim_links", "link_elevation_deg"]
 
 
 class LabelledReceptions:
@@ -105,20 +105,16 @@ class LabelledReceptions:
         counts = [claim.n_receivers for claim in claims]
         if sum(counts) > self.max_samples:
             for tx, claim in labelled:
-                offsets = claim.rx_p_enu_m - claim.claimed_p_enu_m
-                distance_m = _row_norms(offsets)
-                elevation = link_elevation_deg(offsets[:, 2], distance_m)
-                self.add(tx, claim.rx_sysid, distance_m, claim.rssi_dbm, elevation)
+                distance_m, elevation_deg = claim_links([claim])
+                self.add(tx, claim.rx_sysid, distance_m, claim.rssi_dbm, elevation_deg)
             return
-        claimed = np.repeat(np.stack([claim.claimed_p_enu_m for claim in claims]), counts, axis=0)
-        offsets = np.concatenate([claim.rx_p_enu_m for claim in claims]) - claimed
-        distance_m = _row_norms(offsets)
+        distance_m, elevation_deg = claim_links(claims)
         self.add_rows(
             np.repeat(np.array([tx for tx, _ in labelled], dtype=np.int64), counts),
             np.concatenate([claim.rx_sysid for claim in claims]),
             distance_m,
             np.concatenate([claim.rssi_dbm for claim in claims]),
-            link_elevation_deg(offsets[:, 2], distance_m),
+            elevation_deg,
         )
 
     def add_rows(
@@ -154,6 +150,16 @@ def _airborne(claim: ObservedClaim, min_height_m: float) -> ObservedClaim:
     if min_height_m > 0.0 and claim.claimed_p_enu_m[2] < min_height_m:
         return receptions(claim, np.zeros(claim.n_receivers, dtype=bool))
     return airborne_receptions(claim, min_height_m)
+
+
+def claim_links(claims: Sequence[ObservedClaim]) -> tuple[FloatArray, FloatArray]:
+    """Every reception of ``claims`` (in order): its receiver's distance to the claimed
+    position (m) and that link's elevation (``link_elevation_deg``)."""
+    counts = [claim.n_receivers for claim in claims]
+    claimed = np.repeat(np.stack([claim.claimed_p_enu_m for claim in claims]), counts, axis=0)
+    offsets = np.concatenate([claim.rx_p_enu_m for claim in claims]) - claimed
+    distance_m = _row_norms(offsets)
+    return distance_m, link_elevation_deg(offsets[:, 2], distance_m)
 
 
 def link_elevation_deg(dz_m: FloatArray, distance_m: FloatArray) -> FloatArray:

@@ -65,7 +65,7 @@ from ridsafe.gcs.calibration.channel_fit import (
     fit_channel,
 )
 from ridsafe.gcs.calibration.config import CalibrationConfig
-from ridsafe.gcs.calibration.cooperative import CooperativeLabeller, link_elevation_deg
+from ridsafe.gcs.calibration.cooperative import CooperativeLabeller, claim_links
 from ridsafe.gcs.calibration.review import CalibratedReview
 from ridsafe.gcs.detection.monitor import TransmitterMonitor, observe_batch
 from ridsafe.gcs.pipeline import FORGET_AFTER_S, EstimationPipeline
@@ -137,13 +137,8 @@ def _mapped(
     rx_sysid = np.concatenate([claim.rx_sysid for claim in claims])
     corrected = rssi_dbm - estimate.bias_of(rx_sysid)
     if with_elevation and estimate.elevation_knots_deg:
-        counts = [claim.n_receivers for claim in claims]
-        claimed = np.repeat(np.stack([claim.claimed_p_enu_m for claim in claims]), counts, axis=0)
-        offsets = np.concatenate([claim.rx_p_enu_m for claim in claims]) - claimed
-        distance_m = np.sqrt(np.add.reduce(offsets * offsets, axis=1))
-        corrected = corrected - estimate.elevation_gain_of(
-            link_elevation_deg(offsets[:, 2], distance_m)
-        )
+        _, elevation_deg = claim_links(claims)
+        corrected = corrected - estimate.elevation_gain_of(elevation_deg)
     return readonly(pivot_dbm + (2.0 / estimate.exponent) * (corrected - pivot_dbm))
 
 
@@ -379,7 +374,9 @@ class _TrackNoise:
         #: (the tracks' sigma / the detectors' sigma)^2: the inner pipeline's rssi_sigma_db
         #: is the detectors'.
         self.variance_ratio = variance_ratio
-        self.review = CalibratedReview(config.calibration, labeller)
+        # Only its vouched MLAT statistics are read: no empirical null to keep.
+        cal = dataclasses.replace(config.calibration, empirical_null=False)
+        self.review = CalibratedReview(cal, labeller)
         self.monitors: dict[str, TransmitterMonitor] = {}
         self._last_heard_s: dict[str, float] = {}
 
