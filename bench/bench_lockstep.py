@@ -3,16 +3,19 @@ the spoofer for 120 s (sim backend, N companions, GCS and recorder, every MAVLin
 the planners people fly (aware first) at 16 and 64 aircraft.
 
     python bench/bench_lockstep.py [--planners aware,trust-rid] [--aircraft 16,64]
-                                   [--repeat 3] [--tick S] [--duration S]
+                                   [--repeat 3] [--tick S] [--duration S] [--serial]
 
 Each repetition is a fresh Python process timing one ``run_lockstep`` call, as
 ``ridsafe run --mode lockstep`` makes it: building the cores (the numba kernels load from
-their cache), the flight, and the log written and closed (by the recorder's own process).
-Interpreter start and imports are not counted. The machine is shared, so one run can be
-10 % off; the verdict uses the median of the repetitions. Each run also reports the CPU time
-of the process that flies it (``time.process_time``: the recorder's child process, which
-writes the log on the other core, is not in it), the number to compare on a loaded machine,
-where wall clock mostly measures the other jobs.
+their cache), the flight (on two processes where the machine has two CPUs: this one steps the
+sim and half the companions, a forked worker the GCS and the other half;
+``tools/run/lockstep_split.py``), and the log written and closed (by the recorder's own
+process). Interpreter start and imports are not counted. The machine is shared, so one run
+can be 10 % off; the verdict uses the median of the repetitions. Each run also reports the CPU
+time of all its processes (this one, the worker and the recorder; ``time.process_time`` and
+the children's ``getrusage``), the number to compare on a loaded machine, where wall clock
+mostly measures the other jobs. ``--serial`` steps every core in one process (the baseline
+of the two-process run; the same log).
 Targets (scale issue), 2-core development machine: 16 + 1 >= 25x, 64 + 1 >= 8x real time.
 """
 
@@ -28,6 +31,7 @@ import argparse  # noqa: E402
 import dataclasses  # noqa: E402
 import json  # noqa: E402
 import logging  # noqa: E402
+import resource  # noqa: E402
 import statistics  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
@@ -50,6 +54,7 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=120.0)
     parser.add_argument("--tick", type=float, help="lockstep tick (s), default the config's")
     parser.add_argument("--repeat", type=int, default=3, help="fresh processes, one run each")
+    parser.add_argument("--serial", action="store_true", help="every core in one process")
     parser.add_argument("--once", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--planner", help=argparse.SUPPRESS)  # one cell, for --once
     args = parser.parse_args()
@@ -63,8 +68,8 @@ def main() -> None:
         for planner in (p for p in args.planners.split(",") if p):
             rows.append(_cell(args, planner, n))
     print(
-        "\n| planner | aircraft | wall clock (median, s) | speed-up | target | CPU (median, s) "
-        "| GCS compute (s) | planner p99 (ms) |"
+        "\n| planner | aircraft | wall clock (median, s) | speed-up | target "
+        "| CPU, all processes (median, s) | GCS compute (s) | planner p99 (ms) |"
     )
     print("|---|---|---|---|---|---|---|---|")
     for row in rows:
@@ -74,7 +79,7 @@ def main() -> None:
 def _cell(args: argparse.Namespace, planner: str, n_aircraft: int) -> str:
     """``args.repeat`` fresh processes of one (planner, N); the cell's table row."""
     base = [sys.executable, __file__, "--once", "--planner", planner, "--aircraft", str(n_aircraft)]
-    base += ["--duration", str(args.duration)]
+    base += ["--duration", str(args.duration)] + (["--serial"] if args.serial else [])
     if args.tick is not None:
         base += ["--tick", str(args.tick)]
     runs = []
@@ -121,9 +126,10 @@ def _one_run(args: argparse.Namespace, planner: str, n_aircraft: int) -> dict[st
             loaded, run=dataclasses.replace(loaded.run, lockstep_tick_s=args.tick)
         )
     with tempfile.TemporaryDirectory() as tmp:
-        start, cpu_start = time.perf_counter(), time.process_time()
-        result = lockstep.run_lockstep(loaded, planner, Path(tmp) / "run.mcap")
-        wall, cpu = time.perf_counter() - start, time.process_time() - cpu_start
+        start, cpu_start = time.perf_counter(), _cpu_s()
+        split = False if args.serial else None  # None: as `ridsafe run` decides
+        result = lockstep.run_lockstep(loaded, planner, Path(tmp) / "run.mcap", split=split)
+        wall, cpu = time.perf_counter() - start, _cpu_s() - cpu_start
         metrics = compute_metrics(result.log_path)
     return {
         "wall_s": wall,
@@ -134,6 +140,12 @@ def _one_run(args: argparse.Namespace, planner: str, n_aircraft: int) -> dict[st
         "gcs_compute_s": metrics["gcs_compute_s"],
         "planner_p99_ms": metrics["planner_decision_p99_ms"],
     }
+
+
+def _cpu_s() -> float:
+    """CPU time of this process and of its children that have ended (s)."""
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + children.ru_utime + children.ru_stime
 
 
 if __name__ == "__main__":

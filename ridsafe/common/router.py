@@ -60,6 +60,10 @@ class ByteRouter:
                 self._inbox[dest[0]].append((dest[1], data))
                 self.delivered += 1
 
+    def destination(self, core: str, endpoint: str) -> Port | None:
+        """Where what ``core`` sends on ``endpoint`` arrives (None: nothing is wired there)."""
+        return self._route.get((core, endpoint))
+
     def drop_inbox(self, core: str) -> int:
         """Discard what is queued for ``core`` (a dead peer); returns how many datagrams."""
         dropped = len(self._inbox[core])

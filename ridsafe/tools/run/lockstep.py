@@ -9,9 +9,11 @@ same scenario and seed give the same log content.
 
 from __future__ import annotations
 
+import functools
 import gc
 import hashlib
 import logging
+import pickle
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -25,7 +27,7 @@ from ridsafe.common.shell import SansIoCore
 from ridsafe.companion.companion import Companion
 from ridsafe.gcs.gcs import Gcs, peer_endpoint
 from ridsafe.sim_backend.world import EndpointKind, SimBackend, endpoint_name
-from ridsafe.tools.run import cores, process, run_records
+from ridsafe.tools.run import cores, lockstep_split, process, run_records
 from ridsafe.tools.run.scenario import ScenarioFile
 
 logger = logging.getLogger(__name__)
@@ -142,13 +144,22 @@ def run_lockstep(
     on_progress: Callable[[float], None] | None = None,
     recorder_process: bool = True,
     live: LogSink | None = None,
+    split: bool | None = None,
 ) -> RunResult:
     """Fly the scenario for its duration, logging to ``log_path``; Ctrl-C ends it early
     with a valid log. ``recorder_process``: write the log from a child process (on the other
     core; the same file), else from this one (a sweep's workers already use every core).
-    ``live``: a second sink that sees every record too (the live Foxglove view)."""
+    ``live``: a second sink that sees every record too (the live Foxglove view). ``split``:
+    step half the cores on a forked worker that also writes the log (``lockstep_split``; the
+    same log, record for record); by default where the log may have a process of its own, the
+    run has no live view and two CPUs are this process's."""
+    if split is None:
+        split = recorder_process and live is None and lockstep_split.can_split()
+    if split:
+        if live is not None:
+            raise ValueError("a split lockstep run has no live view: split=False")
+        return _run_split(loaded, planner, log_path, on_progress)
     wall_start = time.perf_counter()
-    status, reason = "completed", ""
     foxglove = loaded.run.foxglove_channels
     origin = loaded.scenario.origin
     log = process.open_run_log(log_path, origin, foxglove, child_process=recorder_process)
@@ -159,27 +170,80 @@ def run_lockstep(
         try:
             run = build(loaded, planner, recorder)
         except KeyboardInterrupt:  # while compiling or loading the kernels: nothing flew
-            wall = time.perf_counter() - wall_start
-            reason = "Ctrl-C before the run started"
-            recorder.log(topics.RUN_END, 0.0, run_records.run_end(wall, 0.0, "interrupted", reason))
-            return RunResult("interrupted", reason, wall, 0.0, log_path, wall)
+            return _not_started(recorder, log_path, wall_start)
         build_s = time.perf_counter() - build_start
-        duration = loaded.scenario.duration_s
-        # What exists now (modules, kernels, the cores) lives for the whole flight: out of
-        # the collector's reach, a full collection walks only what the flight made (at 64
-        # aircraft 39 of them took 101 ms each, 8 % of the run). Given back afterwards, so
-        # a sweep worker's next run can collect this one's cycles.
-        freeze_startup_objects()
-        try:
-            while run.t_s < duration - 1e-9:
-                now_s = run.step()
-                if on_progress is not None:
-                    on_progress(now_s)
-        except KeyboardInterrupt:
-            status, reason = "interrupted", "Ctrl-C"
-        finally:
-            gc.unfreeze()
+        status, reason = _fly(run, loaded.scenario.duration_s, on_progress)
         run.finish()
         wall = time.perf_counter() - wall_start
         recorder.log(topics.RUN_END, run.t_s, run_records.run_end(wall, run.t_s, status, reason))
     return RunResult(status, reason, wall, run.t_s, log_path, build_s)
+
+
+def _run_split(
+    loaded: ScenarioFile,
+    planner: str,
+    log_path: Path,
+    on_progress: Callable[[float], None] | None,
+) -> RunResult:
+    """``run_lockstep`` on two processes, the worker writing the log."""
+    wall_start = time.perf_counter()
+    buffer = lockstep_split.LaneBuffer()
+    run_records.log_meta(buffer, run_records.run_meta(loaded, "lockstep", planner))
+    build_start = time.perf_counter()
+    origin, foxglove = loaded.scenario.origin, loaded.run.foxglove_channels
+    try:
+        serial = build(loaded, planner, buffer)
+    except KeyboardInterrupt:
+        with process.open_run_log(log_path, origin, foxglove) as log:
+            for topic, t_s, record in map(pickle.loads, buffer.take()):
+                log.log(topic, t_s, record)
+            return _not_started(log, log_path, wall_start)
+    build_s = time.perf_counter() - build_start
+    roles = lockstep_split.Roles(SIM, GCS, tuple(map(companion_core, serial.companions)))
+    freeze_startup_objects()  # before the fork: the worker inherits them frozen
+    with lockstep_split.SplitLockstep(
+        serial.router,
+        roles,
+        serial.tick_s,
+        buffer,
+        functools.partial(process.open_run_log, log_path, origin, foxglove),
+    ) as run:
+        status, reason = _fly(run, loaded.scenario.duration_s, on_progress, frozen=True)
+        run.finish()
+        wall = time.perf_counter() - wall_start
+        buffer.log(topics.RUN_END, run.t_s, run_records.run_end(wall, run.t_s, status, reason))
+        run.close()
+    return RunResult(status, reason, wall, run.t_s, log_path, build_s)
+
+
+def _fly(
+    run: Lockstep | lockstep_split.SplitLockstep,
+    duration_s: float,
+    on_progress: Callable[[float], None] | None,
+    frozen: bool = False,
+) -> tuple[str, str]:
+    """Step ``run`` to ``duration_s``, or until Ctrl-C; returns (status, reason)."""
+    # What exists now (modules, kernels, the cores) lives for the whole flight: out of the
+    # collector's reach, a full collection walks only what the flight made (at 64 aircraft
+    # 39 of them took 101 ms each, 8 % of the run). Given back afterwards, so a sweep
+    # worker's next run can collect this one's cycles.
+    if not frozen:
+        freeze_startup_objects()
+    try:
+        while run.t_s < duration_s - 1e-9:
+            now_s = run.step()
+            if on_progress is not None:
+                on_progress(now_s)
+    except KeyboardInterrupt:
+        return "interrupted", "Ctrl-C"
+    finally:
+        gc.unfreeze()
+    return "completed", ""
+
+
+def _not_started(log: LogSink, log_path: Path, wall_start: float) -> RunResult:
+    """The result (and the log's last record) of a run stopped while its cores were built."""
+    wall = time.perf_counter() - wall_start
+    reason = "Ctrl-C before the run started"
+    log.log(topics.RUN_END, 0.0, run_records.run_end(wall, 0.0, "interrupted", reason))
+    return RunResult("interrupted", reason, wall, 0.0, log_path, wall)

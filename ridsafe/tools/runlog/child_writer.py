@@ -27,6 +27,7 @@ import multiprocessing.connection
 import os
 import pickle
 import signal
+import threading
 from collections.abc import Iterator, Sequence
 from multiprocessing.context import ForkContext, SpawnContext
 from pathlib import Path
@@ -39,7 +40,7 @@ from ridsafe.tools.runlog.writer import (
     WriterPlugin,
 )
 
-__all__ = ["RecorderProcess"]
+__all__ = ["RecorderProcess", "ctrl_c_deferred"]
 
 logger = logging.getLogger(__name__)
 
@@ -87,7 +88,8 @@ class RecorderProcess:
             name="ridsafe-recorder",
             daemon=False,
         )
-        self._process.start()
+        with ctrl_c_deferred():  # until the child ignores it, Ctrl-C is noted, not raised
+            self._process.start()
         records_out.close()
         result_in.close()
 
@@ -136,7 +138,7 @@ class RecorderProcess:
             return
         batch, self._pending = b"".join(self._pending), []
         try:
-            with _ctrl_c_deferred():  # a batch cut in half would garble the pipe
+            with ctrl_c_deferred():  # a batch cut in half would garble the pipe
                 self._records.send_bytes(batch)
         except OSError as exc:  # BrokenPipeError: the child is gone
             raise RecorderError(
@@ -155,16 +157,25 @@ class RecorderProcess:
 
 
 @contextlib.contextmanager
-def _ctrl_c_deferred() -> Iterator[None]:
-    """Hold SIGINT until the block is done (where the platform can block signals)."""
-    if not hasattr(signal, "pthread_sigmask"):
+def ctrl_c_deferred() -> Iterator[None]:
+    """Hold Ctrl-C (SIGINT) until the block is done, then act on it as the handler before
+    would have (``KeyboardInterrupt`` by default). A handler of its own notes it meanwhile;
+    blocking the signal would not do: one that arrived just before the block still raises
+    inside it. Outside the main thread (which alone handles signals) nothing to hold."""
+    if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    caught: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, _frame: caught.append(signum))
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+        signal.signal(signal.SIGINT, previous)
+        if caught:
+            if callable(previous):
+                previous(signal.SIGINT, None)
+            elif previous == signal.SIG_DFL:
+                signal.raise_signal(signal.SIGINT)
 
 
 def _record(

@@ -19,7 +19,7 @@ import pytest
 from mcap.reader import make_reader
 
 from ridsafe.common import topics
-from ridsafe.tools.runlog.child_writer import RecorderProcess, _ctrl_c_deferred
+from ridsafe.tools.runlog.child_writer import RecorderProcess, ctrl_c_deferred
 from ridsafe.tools.runlog.foxglove_channels import FoxgloveChannels
 from ridsafe.tools.runlog.reader import LogReadError, read_records
 from ridsafe.tools.runlog.writer import METADATA_NAME, McapRecorder, RecorderError
@@ -149,7 +149,7 @@ def test_the_file_is_finished_when_the_runs_process_dies(tmp_path: Path) -> None
         f"""
         import os
         from ridsafe.common import topics
-        from ridsafe.tools.runlog.child_writer import RecorderProcess, _ctrl_c_deferred
+        from ridsafe.tools.runlog.child_writer import RecorderProcess, ctrl_c_deferred
         sink = RecorderProcess({str(path)!r})
         for k in range(30):  # 0.0 .. 7.25 s: sent when 5 s is passed
             sink.log(topics.GCS_CYCLE, 0.25 * k, {{"n": k}})
@@ -167,7 +167,7 @@ def test_the_file_is_finished_when_the_runs_process_dies(tmp_path: Path) -> None
 @pytest.mark.skipif(not hasattr(signal, "pthread_sigmask"), reason="signals cannot be held")
 def test_ctrl_c_during_a_send_waits_until_the_batch_is_in_the_pipe() -> None:
     sent_whole = False
-    with keyboard_interrupt_on_sigint(), pytest.raises(KeyboardInterrupt), _ctrl_c_deferred():
+    with keyboard_interrupt_on_sigint(), pytest.raises(KeyboardInterrupt), ctrl_c_deferred():
         os.kill(os.getpid(), signal.SIGINT)
         time.sleep(0.05)  # the signal has arrived and waits
         sent_whole = True

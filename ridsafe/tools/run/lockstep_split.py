@@ -1,0 +1,386 @@
+"""A lockstep run on two processes: the serial run's log, record for record, on two cores.
+
+The serial run (:class:`~ridsafe.tools.run.lockstep.Lockstep`) calls, every tick, the sim, the
+companions in system-id order and the GCS. Two facts let half of that run elsewhere: within
+a tick the companions never hear one another, and the GCS of tick t and the sim of tick t+1
+need nothing from each other (the GCS's replies reach the companions at t+1; the sim hears
+the companions of tick t). So a forked worker runs the GCS and the second half of the
+companions, this process the sim and the first half:
+
+    this process:  sim(t)    | companions[:k](t) | sim(t+1)  | ...
+    worker:        GCS(t-1)  | companions[k:](t) | GCS(t)    | ...
+
+At each ``|`` the two exchange the datagrams that cross between them (this process sends
+first, the worker receives first, so neither can block the other on a full pipe). Every core
+is given the same input, in the same order, at the same sim time as in the serial run, so it
+does the same thing.
+
+The worker also writes the log, in the time it waits for this process (one record at a time,
+looking for the next message between two). A core's records go to its process's
+:class:`LaneBuffer` (pickled when logged: a snapshot, as the recorder's own pickling is); this
+process sends its own with the datagrams, and the worker writes them all in the serial order
+(GCS(t-1), sim(t), companions by system id). A third process (the recorder child of a serial
+run) would take the core from one of the two at random moments and hold up both.
+"""
+
+from __future__ import annotations
+
+import collections
+import contextlib
+import multiprocessing
+import multiprocessing.connection
+import pickle
+import signal
+import time
+import traceback
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Protocol, cast
+
+from ridsafe.common.logsink import LogSink, Record
+from ridsafe.common.router import ByteRouter, Port
+from ridsafe.common.shell import Datagrams, SansIoCore
+from ridsafe.tools.runlog.child_writer import ctrl_c_deferred
+from ridsafe.tools.runlog.writer import RecorderError
+
+__all__ = ["Core", "LaneBuffer", "Roles", "SplitLockstep", "WorkerError", "can_split"]
+
+#: How long this process waits for the worker's answer before calling it dead (s). A tick is
+#: milliseconds; the first tick of the GCS (its kernels warm) under a second.
+_ANSWER_TIMEOUT_S = 120.0
+#: Closing: the worker writes what is still pending (seconds of records at most) first.
+_CLOSE_TIMEOUT_S = 600.0
+_JOIN_TIMEOUT_S = 10.0
+#: This process looks for the worker's answer this long before it sleeps on the pipe: the
+#: answer usually comes sooner than a sleeping process is woken (about 70 us a wake-up).
+_SPIN_S = 100e-6
+#: Records the worker lets wait for a quiet moment; beyond, it writes them before it answers.
+_MAX_PENDING_RECORDS = 200_000
+
+Pickled = bytes  # pickle of (topic, t_s, record)
+
+
+@dataclass
+class LaneBuffer:
+    """The ``LogSink`` of every core of one process of a split run: records, pickled, in the
+    order they were logged, until :meth:`take`."""
+
+    records: list[Pickled] = field(default_factory=list)
+
+    def log(self, topic: str, t_s: float, record: Record) -> None:
+        try:
+            self.records.append(pickle.dumps((topic, t_s, record), pickle.HIGHEST_PROTOCOL))
+        except (pickle.PicklingError, TypeError, AttributeError) as exc:
+            raise RecorderError(f"{topic}: record cannot be handed to the recorder: {exc}") from exc
+
+    def take(self) -> list[Pickled]:
+        out, self.records = self.records, []
+        return out
+
+
+def can_split() -> bool:
+    """Whether a run may use a second process here: fork exists and two CPUs are ours."""
+    import os  # noqa: PLC0415
+
+    if "fork" not in multiprocessing.get_all_start_methods():
+        return False
+    usable = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
+    count = len(usable) if usable is not None else (os.cpu_count() or 1)
+    return count >= 2
+
+
+class Core(SansIoCore, Protocol):
+    """A lockstep core: ``handle`` every tick, ``finish`` once at the end of the run."""
+
+    def finish(self, now_s: float) -> Datagrams: ...
+
+
+class WorkerError(RuntimeError):
+    """The worker process of a split run failed or went away."""
+
+
+@dataclass(frozen=True)
+class Roles:
+    """Which of a lockstep router's cores is the sim, which the GCS, which the companions (in
+    the router's order: the sim first, the GCS last)."""
+
+    sim: str
+    gcs: str
+    companions: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class _Routes:
+    """Where each core's datagrams go: the router's wires."""
+
+    router: ByteRouter
+
+    def split(self, core: str, sent: Datagrams, into: dict[str, Datagrams]) -> None:
+        """Append what ``core`` sent to the inbox lists in ``into``, by destination core."""
+        for endpoint, data in sent:
+            dest: Port | None = self.router.destination(core, endpoint)
+            if dest is not None:
+                into[dest[0]].append((dest[1], data))
+
+
+class SplitLockstep:
+    """The cores of a lockstep run, all logging to ``buffer``, stepped on this process and a
+    forked worker that writes the log (``open_log()``, called in the worker; see the module
+    docstring). Same interface as :class:`~ridsafe.tools.run.lockstep.Lockstep` where a run
+    needs it: ``step``, ``t_s``, ``finish``. Then what this process logs after ``finish``
+    goes to ``buffer`` too, and :meth:`close` has it written and the log closed; on ``with``
+    exit the worker ends in any case."""
+
+    def __init__(
+        self,
+        router: ByteRouter,
+        roles: Roles,
+        tick_s: float,
+        buffer: LaneBuffer,
+        open_log: Callable[[], LogSink],
+    ) -> None:
+        if router.order != [roles.sim, *roles.companions, roles.gcs]:
+            raise ValueError(f"a split run needs the order sim, companions, GCS: {router.order}")
+        self.tick_s = tick_s
+        self.ticks = 0
+        self._roles = roles
+        self._buffer = buffer
+        names = list(roles.companions)
+        half = (len(names) + 1) // 2
+        self._names, self._there_names = names, names[half:]
+        cores = cast(dict[str, Core], router.cores)
+        self._here = [(name, cores[name]) for name in names[:half]]
+        there = [(name, cores[name]) for name in names[half:]]
+        self._sim = cores[roles.sim]
+        self._routes = _Routes(router)
+        self._sim_inbox: Datagrams = []
+        self._finished = self._closed = False
+        context = multiprocessing.get_context("fork")
+        self._conn, worker_end = context.Pipe(duplex=True)
+        self._process = context.Process(
+            target=_work,
+            args=(worker_end, self._conn, router, roles, there, buffer, open_log),
+            name="ridsafe-lockstep-worker",
+            daemon=True,
+        )
+        with ctrl_c_deferred():  # until the worker ignores it, Ctrl-C is noted, not raised
+            self._process.start()
+        worker_end.close()
+        buffer.take()  # what was logged before the fork: the worker writes its own copy
+        try:
+            self._answer(_ANSWER_TIMEOUT_S)  # the worker has opened the log
+        except WorkerError:
+            self._end_worker()
+            raise
+
+    @property
+    def t_s(self) -> float:
+        return self.ticks * self.tick_s
+
+    @property
+    def worker_pid(self) -> int | None:
+        return self._process.pid
+
+    def step(self) -> float:
+        """One tick of every core (the GCS's part of it finishes on the worker during the
+        next tick); returns its sim time."""
+        self.ticks += 1
+        now_s = self.ticks * self.tick_s
+        with ctrl_c_deferred():  # a tick cut in half would leave the worker mid-exchange
+            self._step(now_s)
+        return now_s
+
+    def _step(self, now_s: float) -> None:
+        sim_inbox, self._sim_inbox = self._sim_inbox, []
+        to_companions: dict[str, Datagrams] = {name: [] for name in self._names}
+        self._routes.split(self._roles.sim, self._sim.handle(now_s, sim_inbox), to_companions)
+        there = {name: to_companions[name] for name in self._there_names}
+        self._conn.send(("step", now_s, there, self._buffer.take()))
+        from_gcs: dict[str, Datagrams] = self._answer(_ANSWER_TIMEOUT_S)
+        sim, gcs = self._roles.sim, self._roles.gcs
+        to_gcs: dict[str, Datagrams] = {sim: self._sim_inbox, gcs: []}
+        for name, core in self._here:
+            inbound = from_gcs.get(name, []) + to_companions[name]
+            self._routes.split(name, core.handle(now_s, inbound), to_gcs)
+        self._conn.send((to_gcs[gcs], self._buffer.take()))
+        to_sim: Datagrams = self._answer(_ANSWER_TIMEOUT_S)
+        self._sim_inbox.extend(to_sim)
+
+    def finish(self) -> None:
+        """The serial run's ``finish``: after the last tick's GCS, the companions, the GCS and
+        the sim say goodbye, in that order."""
+        if self._finished:
+            return
+        self._finished = True
+        now_s = self.t_s
+        with ctrl_c_deferred():
+            for _, core in self._here:
+                core.finish(now_s)
+            self._conn.send(("finish", now_s, {}, self._buffer.take()))
+            self._answer(_ANSWER_TIMEOUT_S)  # the worker's companions and the GCS are done
+            self._sim.finish(now_s)
+
+    def close(self) -> None:
+        """Have the worker write what this process logged since and close the log; raises
+        WorkerError if it could not. Safe to call twice."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            with ctrl_c_deferred():
+                self._conn.send(("close", self.t_s, {}, self._buffer.take()))
+                self._answer(_CLOSE_TIMEOUT_S)
+        finally:
+            self._end_worker()
+
+    def __enter__(self) -> SplitLockstep:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self._end_worker()
+
+    def _end_worker(self) -> None:
+        """End the worker (it closes the log on end of file); safe to call twice."""
+        with contextlib.suppress(OSError):
+            self._conn.close()
+        self._process.join(_CLOSE_TIMEOUT_S if self._closed else _JOIN_TIMEOUT_S)
+        if self._process.is_alive():
+            self._process.kill()
+            self._process.join(_JOIN_TIMEOUT_S)
+
+    def _answer(self, timeout_s: float) -> Any:
+        """The worker's next answer; raises WorkerError if it failed or is gone."""
+        try:
+            if not _spin(self._conn) and not self._conn.poll(timeout_s):
+                raise WorkerError(f"lockstep worker silent for {timeout_s:g} s")
+            message = self._conn.recv()
+        except (EOFError, OSError) as exc:
+            self._process.join(_JOIN_TIMEOUT_S)
+            code = self._process.exitcode
+            raise WorkerError(f"lockstep worker went away (exit code {code})") from exc
+        if message[0] == "error":
+            raise WorkerError(f"lockstep worker failed:\n{message[1]}")
+        return message[1]
+
+
+def _spin(conn: multiprocessing.connection.Connection) -> bool:
+    """Whether something arrives on ``conn`` within ``_SPIN_S`` (looking, not sleeping)."""
+    end = time.perf_counter() + _SPIN_S
+    while not conn.poll():
+        if time.perf_counter() > end:
+            return False
+    return True
+
+
+class _Writer:
+    """The worker's log: records wait in order and are written while the worker waits."""
+
+    def __init__(self, log: LogSink, first: Sequence[Pickled]) -> None:
+        self.log = log
+        self.pending: collections.deque[Pickled] = collections.deque(first)
+        self.closed = False
+
+    def add(self, records: Sequence[Pickled]) -> None:
+        self.pending.extend(records)
+        while len(self.pending) > _MAX_PENDING_RECORDS:
+            self.write_one()
+
+    def write_one(self) -> None:
+        self.log.log(*pickle.loads(self.pending.popleft()))
+
+    def wait_for(self, conn: multiprocessing.connection.Connection) -> Any:
+        """The next message on ``conn``, writing pending records until it is there."""
+        while not conn.poll():
+            if self.pending:
+                self.write_one()
+            else:
+                conn.poll(None)
+        return conn.recv()
+
+    def close(self) -> None:
+        """Write what is pending and close the log; once."""
+        if self.closed:
+            return
+        self.closed = True
+        try:
+            while self.pending:
+                self.write_one()
+        finally:
+            close = getattr(self.log, "close", None)
+            if close is not None:
+                close()
+
+
+def _work(
+    conn: multiprocessing.connection.Connection,
+    parent_end: multiprocessing.connection.Connection,
+    router: ByteRouter,
+    roles: Roles,
+    cores: list[tuple[str, Core]],
+    buffer: LaneBuffer,
+    open_log: Callable[[], LogSink],
+) -> None:
+    """The worker: the GCS one tick behind, the companions ``cores`` and the log (see the
+    module docstring), until told to close or the run's process goes away."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the run's process decides on Ctrl-C
+    parent_end.close()  # end of file must mean the run's process is gone
+    writer: _Writer | None = None
+    try:
+        writer = _Writer(open_log(), buffer.take())
+        conn.send(("ok", None))  # the log is open
+        _serve(conn, _Routes(router), roles, cores, buffer, writer)
+        writer.close()
+        conn.send(("ok", None))
+    except (EOFError, BrokenPipeError):
+        pass  # the run's process is gone: the log is finished below with what came
+    except BaseException:  # reported to the run's process, which raises it
+        with contextlib.suppress(OSError):
+            conn.send(("error", traceback.format_exc()))
+    finally:
+        if writer is not None:
+            writer.close()
+
+
+def _serve(
+    conn: multiprocessing.connection.Connection,
+    routes: _Routes,
+    roles: Roles,
+    cores: list[tuple[str, Core]],
+    buffer: LaneBuffer,
+    writer: _Writer,
+) -> None:
+    """Answer the run's process until it says close; the log's last records are written by
+    the caller (``_Writer.close``)."""
+    gcs = cast(Core, routes.router.cores[roles.gcs])
+    mine = {name for name, _ in cores}
+    gcs_inbox: Datagrams = []
+    gcs_now_s: float | None = None
+    while True:
+        to_companions: dict[str, Datagrams] = {name: [] for name in roles.companions}
+        if gcs_now_s is not None:
+            routes.split(roles.gcs, gcs.handle(gcs_now_s, gcs_inbox), to_companions)
+            gcs_now_s = None
+        writer.add(buffer.take())  # the GCS's records come before the sim's of the next tick
+        kind, now_s, from_sim, records = writer.wait_for(conn)
+        writer.add(records)
+        if kind == "close":
+            return
+        if kind == "finish":  # the run's companions said goodbye; now these and the GCS
+            for _, core in cores:
+                core.finish(now_s)
+            gcs.finish(now_s)
+            writer.add(buffer.take())
+            conn.send(("ok", None))
+            continue
+        theirs = {name: sent for name, sent in to_companions.items() if name not in mine}
+        conn.send(("ok", theirs))
+        to_gcs: dict[str, Datagrams] = {roles.sim: [], roles.gcs: []}
+        for name, core in cores:
+            inbound = to_companions[name] + from_sim[name]
+            routes.split(name, core.handle(now_s, inbound), to_gcs)
+        from_here, records = writer.wait_for(conn)
+        writer.add(records)  # the run's companions, then these
+        writer.add(buffer.take())
+        conn.send(("ok", to_gcs[roles.sim]))
+        gcs_inbox = from_here + to_gcs[roles.gcs]
+        gcs_now_s = now_s

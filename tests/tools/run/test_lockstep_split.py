@@ -1,0 +1,204 @@
+"""A lockstep run on two processes logs what the serial run logs, in the same order; a worker
+that fails or dies is an error that names it, never a quietly shorter log."""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterable, Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from ridsafe.common.logsink import LogSink, MemorySink, Record
+from ridsafe.common.router import ByteRouter, Wire
+from ridsafe.common.shell import Datagrams
+from ridsafe.tools.run import lockstep_split
+from ridsafe.tools.run.lockstep import run_lockstep
+from ridsafe.tools.run.lockstep_split import LaneBuffer, Roles, SplitLockstep, WorkerError
+from ridsafe.tools.run.scenario import load_scenario_file
+from ridsafe.tools.runlog.reader import read_records
+from ridsafe.tools.runlog.writer import McapRecorder
+
+pytestmark = pytest.mark.skipif(
+    not lockstep_split.can_split(), reason="a split run needs fork and two CPUs"
+)
+
+ROOT = Path(__file__).resolve().parents[3]
+#: Record fields that hold wall-clock measurements (they differ between any two runs).
+WALL_CLOCK_FIELDS = {"compute_ms", "pipeline_ms", "wall_clock_s", "started_unix_s"}
+
+
+def _without_wall_clock(record: Mapping[str, Any]) -> dict[str, Any]:
+    return {key: value for key, value in record.items() if key not in WALL_CLOCK_FIELDS}
+
+
+def test_a_split_run_logs_what_a_serial_run_logs(tmp_path: Path) -> None:
+    """The default scenario (4 aircraft and the spoofer, aware planner) for 20 s: every
+    record, its topic, its time and its place in the log are the serial run's."""
+    loaded = load_scenario_file()
+    loaded = dataclasses.replace(
+        loaded, scenario=dataclasses.replace(loaded.scenario, duration_s=20.0)
+    )
+    logs = {}
+    for split in (False, True):
+        path = tmp_path / f"split-{split}.mcap"
+        result = run_lockstep(loaded, "aware", path, split=split)
+        assert result.status == "completed" and result.sim_time_s == pytest.approx(20.0)
+        logs[split] = [(topic, t, _without_wall_clock(r)) for topic, t, r in read_records(path)]
+    serial, split_log = logs[False], logs[True]
+    assert len(serial) > 1000
+    topics = {topic for topic, _, _ in serial}
+    assert {"/gcs/cycle", "/companion/decisions", "/companion/observations"} <= topics
+    assert split_log == serial
+
+
+# -- small cores, to see the order and the failures ---------------------------------------
+
+
+@dataclasses.dataclass
+class _Core:
+    """Logs what it was handed each tick and answers each peer with its name and the tick."""
+
+    name: str
+    peers: tuple[str, ...]  # endpoint names it sends on
+    sink: LogSink
+    fail_at_s: float | None = None
+
+    def handle(self, now_s: float, inbound: Datagrams) -> Datagrams:
+        if self.fail_at_s is not None and now_s >= self.fail_at_s:
+            raise RuntimeError(f"{self.name} broke at {now_s:g} s")
+        got = [[endpoint, data.decode()] for endpoint, data in inbound]
+        self.sink.log("/test/handle", now_s, {"core": self.name, "got": got})
+        return [(peer, f"{self.name}@{now_s:g}".encode()) for peer in self.peers]
+
+    def finish(self, now_s: float) -> Datagrams:
+        self.sink.log("/test/finish", now_s, {"core": self.name})
+        return []
+
+
+def _cores(n: int, sink: LogSink, fail: str = "") -> tuple[dict[str, _Core], list[Wire], Roles]:
+    companions = [f"companion/{k}" for k in range(1, n + 1)]
+    cores = {
+        "sim": _Core("sim", tuple(f"to{k}" for k in range(1, n + 1)), sink),
+        "gcs": _Core("gcs", tuple(f"c{k}" for k in range(1, n + 1)), sink),
+    }
+    wires = []
+    for k, name in enumerate(companions, start=1):
+        cores[name] = _Core(name, ("autopilot", "gcs"), sink)
+        wires += [
+            Wire(("sim", f"to{k}"), (name, "autopilot")),
+            Wire(("gcs", f"c{k}"), (name, "gcs")),
+        ]
+    if fail:
+        cores[fail].fail_at_s = 0.3
+    return cores, wires, Roles("sim", "gcs", tuple(companions))
+
+
+def _serial(n: int, ticks: int) -> list[tuple[str, float, Record]]:
+    sink = MemorySink()
+    cores, wires, roles = _cores(n, sink)
+    router = ByteRouter(cores, wires, ["sim", *roles.companions, "gcs"])
+    for k in range(1, ticks + 1):
+        router.step(k * 0.1)
+    for name in (*roles.companions, "gcs", "sim"):
+        cores[name].finish(ticks * 0.1)
+    return sink.records
+
+
+@contextlib.contextmanager
+def _split(n: int, log_path: Path, fail: str = "") -> Iterator[tuple[SplitLockstep, LogSink]]:
+    """A split run of ``_cores`` writing ``log_path``, and the sink this process logs to."""
+    buffer = LaneBuffer()
+    cores, wires, roles = _cores(n, buffer, fail)
+    router = ByteRouter(cores, wires, ["sim", *roles.companions, "gcs"])
+    with SplitLockstep(router, roles, 0.1, buffer, lambda: McapRecorder(log_path)) as run:
+        yield run, buffer
+
+
+def _rounded(records: Iterable[tuple[str, float, Record]]) -> list[tuple[str, float, Record]]:
+    """The records with their times to the microsecond and without the reader's ``t_s``."""
+    rounded: list[tuple[str, float, Record]] = []
+    for topic, t_s, record in records:
+        fields = {key: value for key, value in record.items() if key != "t_s"}
+        rounded.append((topic, round(t_s, 6), fields))
+    return rounded
+
+
+@pytest.mark.parametrize("n", [0, 1, 2, 5])
+def test_every_core_is_handed_what_the_serial_run_hands_it_in_the_same_order(
+    n: int, tmp_path: Path
+) -> None:
+    """... and the worker writes every record of both processes in the serial order, those
+    this process logs after ``finish`` last."""
+    log_path = tmp_path / "split.mcap"
+    with _split(n, log_path) as (run, sink):
+        for _ in range(6):
+            run.step()
+        run.finish()
+        sink.log("/test/end", run.t_s, {"core": "run"})
+        run.close()
+    written = _rounded(read_records(log_path))
+    assert written == _rounded([*_serial(n, 6), ("/test/end", 0.6, {"core": "run"})])
+    handed = [record["got"] for topic, _, record in written if topic == "/test/handle"]
+    assert len(handed) == 6 * (n + 2) and (n == 0 or all(handed[-(n + 2) :]))
+
+
+@pytest.mark.parametrize("failing", ["companion/3", "gcs"])
+def test_a_core_failing_in_the_worker_is_an_error_and_the_log_is_finished(
+    failing: str, tmp_path: Path
+) -> None:
+    log_path = tmp_path / "split.mcap"
+    with _split(3, log_path, fail=failing) as (run, _):
+        with pytest.raises(WorkerError, match=f"{failing} broke at 0.3 s"):
+            for _ in range(10):
+                run.step()
+        assert run.t_s < 1.0
+    times = [t_s for topic, t_s, _ in read_records(log_path) if topic == "/test/handle"]
+    assert times.count(0.2) == 5 and max(times) == pytest.approx(0.3)  # every core at 0.2
+
+
+def test_a_worker_that_dies_is_an_error_at_the_next_tick(tmp_path: Path) -> None:
+    with _split(3, tmp_path / "split.mcap") as (run, _):
+        run.step()
+        assert run.worker_pid is not None
+        os.kill(run.worker_pid, signal.SIGKILL)
+        with pytest.raises(WorkerError, match="went away"):
+            for _ in range(3):
+                run.step()
+
+
+def test_a_log_the_worker_cannot_open_is_an_error_before_the_first_tick(tmp_path: Path) -> None:
+    (tmp_path / "taken").write_text("a file, not a directory")
+    with pytest.raises(WorkerError, match="taken"), _split(1, tmp_path / "taken" / "run.mcap"):
+        pass
+
+
+def test_the_log_is_finished_when_the_run_s_process_dies(tmp_path: Path) -> None:
+    """A run process killed mid-flight: its worker writes what came and closes the file."""
+    log_path = tmp_path / "split.mcap"
+    code = f"""
+import os, signal, sys
+sys.path.insert(0, {str(ROOT)!r})
+from tests.tools.run.test_lockstep_split import _split
+from pathlib import Path
+with _split(2, Path({str(log_path)!r})) as (run, _):
+    for _ in range(5):
+        run.step()
+    os.kill(os.getpid(), signal.SIGKILL)
+"""
+    done = subprocess.run([sys.executable, "-c", code], check=False, timeout=60)
+    assert done.returncode == -signal.SIGKILL
+    deadline = time.monotonic() + 30.0
+    while time.monotonic() < deadline:
+        with contextlib.suppress(Exception):
+            times = [t for topic, t, _ in read_records(log_path) if topic == "/test/handle"]
+            break
+        time.sleep(0.1)
+    assert max(times) == 0.5 and times.count(0.5) == 4  # sim, 2 companions and the GCS
