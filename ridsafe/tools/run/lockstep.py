@@ -172,7 +172,11 @@ def run_lockstep(
         except KeyboardInterrupt:  # while compiling or loading the kernels: nothing flew
             return _not_started(recorder, log_path, wall_start)
         build_s = time.perf_counter() - build_start
-        status, reason = _fly(run, loaded.scenario.duration_s, on_progress)
+        freeze_startup_objects()
+        try:
+            status, reason = _fly(run, loaded.scenario.duration_s, on_progress)
+        finally:
+            gc.unfreeze()
         run.finish()
         wall = time.perf_counter() - wall_start
         recorder.log(topics.RUN_END, run.t_s, run_records.run_end(wall, run.t_s, status, reason))
@@ -200,19 +204,20 @@ def _run_split(
             return _not_started(log, log_path, wall_start)
     build_s = time.perf_counter() - build_start
     roles = lockstep_split.Roles(SIM, GCS, tuple(map(companion_core, serial.companions)))
+    open_log = functools.partial(process.open_run_log, log_path, origin, foxglove)
     freeze_startup_objects()  # before the fork: the worker inherits them frozen
-    with lockstep_split.SplitLockstep(
-        serial.router,
-        roles,
-        serial.tick_s,
-        buffer,
-        functools.partial(process.open_run_log, log_path, origin, foxglove),
-    ) as run:
-        status, reason = _fly(run, loaded.scenario.duration_s, on_progress, frozen=True)
-        run.finish()
-        wall = time.perf_counter() - wall_start
-        buffer.log(topics.RUN_END, run.t_s, run_records.run_end(wall, run.t_s, status, reason))
-        run.close()
+    try:
+        with lockstep_split.SplitLockstep(
+            serial.router, roles, serial.tick_s, buffer, open_log
+        ) as run:
+            status, reason = _fly(run, loaded.scenario.duration_s, on_progress)
+            run.finish()
+            wall = time.perf_counter() - wall_start
+            end = run_records.run_end(wall, run.t_s, status, reason)
+            buffer.log(topics.RUN_END, run.t_s, end)
+            run.close()
+    finally:
+        gc.unfreeze()
     return RunResult(status, reason, wall, run.t_s, log_path, build_s)
 
 
@@ -220,15 +225,14 @@ def _fly(
     run: Lockstep | lockstep_split.SplitLockstep,
     duration_s: float,
     on_progress: Callable[[float], None] | None,
-    frozen: bool = False,
 ) -> tuple[str, str]:
-    """Step ``run`` to ``duration_s``, or until Ctrl-C; returns (status, reason)."""
-    # What exists now (modules, kernels, the cores) lives for the whole flight: out of the
-    # collector's reach, a full collection walks only what the flight made (at 64 aircraft
-    # 39 of them took 101 ms each, 8 % of the run). Given back afterwards, so a sweep
-    # worker's next run can collect this one's cycles.
-    if not frozen:
-        freeze_startup_objects()
+    """Step ``run`` to ``duration_s``, or until Ctrl-C; returns (status, reason).
+
+    The caller freezes what exists before (``freeze_startup_objects``: modules, kernels, the
+    cores live for the whole flight; out of the collector's reach, a full collection walks
+    only what the flight made: at 64 aircraft 39 of them took 101 ms each, 8 % of the run)
+    and gives it back after (``gc.unfreeze``), so a sweep worker's next run can collect this
+    one's cycles."""
     try:
         while run.t_s < duration_s - 1e-9:
             now_s = run.step()
@@ -236,8 +240,6 @@ def _fly(
                 on_progress(now_s)
     except KeyboardInterrupt:
         return "interrupted", "Ctrl-C"
-    finally:
-        gc.unfreeze()
     return "completed", ""
 
 

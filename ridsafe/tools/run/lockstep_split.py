@@ -198,11 +198,11 @@ class SplitLockstep:
         self._conn.send(("step", now_s, there, self._buffer.take()))
         from_gcs: dict[str, Datagrams] = self._answer(_ANSWER_TIMEOUT_S)
         sim, gcs = self._roles.sim, self._roles.gcs
-        to_gcs: dict[str, Datagrams] = {sim: self._sim_inbox, gcs: []}
+        sent: dict[str, Datagrams] = {sim: self._sim_inbox, gcs: []}  # by the companions here
         for name, core in self._here:
-            inbound = from_gcs.get(name, []) + to_companions[name]
-            self._routes.split(name, core.handle(now_s, inbound), to_gcs)
-        self._conn.send((to_gcs[gcs], self._buffer.take()))
+            inbound = from_gcs[name] + to_companions[name]
+            self._routes.split(name, core.handle(now_s, inbound), sent)
+        self._conn.send((sent[gcs], self._buffer.take()))
         to_sim: Datagrams = self._answer(_ANSWER_TIMEOUT_S)
         self._sim_inbox.extend(to_sim)
 
@@ -374,13 +374,13 @@ def _serve(
             continue
         theirs = {name: sent for name, sent in to_companions.items() if name not in mine}
         conn.send(("ok", theirs))
-        to_gcs: dict[str, Datagrams] = {roles.sim: [], roles.gcs: []}
+        sent: dict[str, Datagrams] = {roles.sim: [], roles.gcs: []}  # by the companions here
         for name, core in cores:
             inbound = to_companions[name] + from_sim[name]
-            routes.split(name, core.handle(now_s, inbound), to_gcs)
+            routes.split(name, core.handle(now_s, inbound), sent)
         from_here, records = writer.wait_for(conn)
         writer.add(records)  # the run's companions, then these
         writer.add(buffer.take())
-        conn.send(("ok", to_gcs[roles.sim]))
-        gcs_inbox = from_here + to_gcs[roles.gcs]
+        conn.send(("ok", sent[roles.sim]))
+        gcs_inbox = from_here + sent[roles.gcs]
         gcs_now_s = now_s
