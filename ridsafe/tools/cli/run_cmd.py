@@ -56,6 +56,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     parser.add_argument("--json", action="store_true", help="print the metrics as JSON")
     parser.add_argument(
+        "--one-process",
+        action="store_true",
+        help="lockstep: every core in this process (default: two where two CPUs are free)",
+    )
+    parser.add_argument(
         "--foxglove",
         metavar="[HOST:]PORT",
         help="serve the run's channels live to the Foxglove app (WebSocket; host default "
@@ -87,6 +92,8 @@ def run(args: argparse.Namespace) -> int:
         if planner not in PLANNERS:
             raise ValueError(f"unknown planner {planner!r} (known: {', '.join(PLANNERS)})")
         app_args.check_speed(args)
+        if args.one_process and args.mode != "lockstep":
+            raise ValueError("--one-process: only with --mode lockstep (live runs one per app)")
         if args.foxglove:
             from ridsafe.tools.runlog.foxglove_live import parse_host_port  # noqa: PLC0415
 
@@ -109,7 +116,7 @@ def run(args: argparse.Namespace) -> int:
         flush=True,
     )
     if args.mode == "lockstep":
-        status, reason = _lockstep(loaded, planner, out, args.foxglove)
+        status, reason = _lockstep(loaded, planner, out, args.foxglove, args.one_process)
     else:
         status, reason = _live(loaded, planner, out, scenario_path, args.speed, args.foxglove)
     return _report(out, status, reason, args.json)
@@ -135,7 +142,7 @@ class _SimTimeBar:
 
 
 def _lockstep(
-    loaded: ScenarioFile, planner: str, out: Path, foxglove: str | None
+    loaded: ScenarioFile, planner: str, out: Path, foxglove: str | None, one_process: bool
 ) -> tuple[str, str]:
     bar = _SimTimeBar(loaded.scenario.duration_s)
     live: LiveServer | None = None
@@ -147,7 +154,8 @@ def _lockstep(
                 *foxglove_live.parse_host_port(foxglove), loaded.scenario.origin
             )
             print(f"Foxglove: open {live.url}", file=sys.stderr, flush=True)
-        result = run_lockstep(loaded, planner, out / "run.mcap", bar, live=live)
+        split = False if one_process else None  # None: two processes where they help
+        result = run_lockstep(loaded, planner, out / "run.mcap", bar, live=live, split=split)
     finally:
         bar.close()
         if live is not None:

@@ -51,6 +51,7 @@ def test_a_bad_number_is_refused_naming_its_flag(
         (["companion", "--vehicle", "0"], "--vehicle '0': no benign aircraft"),
         (["run", "--set", "run.gcs_connect=udpin:127.0.0.1:5"], "run.gcs_connect: expected udpout"),
         (["run", "--set", "run.gcs_listen=nope"], "run.gcs_listen: connection string 'nope'"),
+        (["run", "--one-process"], "--one-process: only with --mode lockstep"),
     ],
 )
 def test_a_bad_value_after_parsing_names_its_key_or_flag(

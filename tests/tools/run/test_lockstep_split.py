@@ -19,6 +19,7 @@ import pytest
 from ridsafe.common.logsink import LogSink, MemorySink, Record
 from ridsafe.common.router import ByteRouter, Wire
 from ridsafe.common.shell import Datagrams
+from ridsafe.tools.cli import entry_point as cli_main
 from ridsafe.tools.run import lockstep_split
 from ridsafe.tools.run.lockstep import run_lockstep
 from ridsafe.tools.run.lockstep_split import LaneBuffer, Roles, SplitLockstep, WorkerError
@@ -57,6 +58,23 @@ def test_a_split_run_logs_what_a_serial_run_logs(tmp_path: Path) -> None:
     topics = {topic for topic, _, _ in serial}
     assert {"/gcs/cycle", "/companion/decisions", "/companion/observations"} <= topics
     assert split_log == serial
+
+
+def test_one_process_is_asked_for_on_the_command_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``ridsafe run --mode lockstep --one-process``: no worker is started."""
+
+    def refuse(*_args: object) -> None:
+        raise AssertionError("a worker was started")
+
+    monkeypatch.setattr(lockstep_split.SplitLockstep, "__init__", refuse)
+    argv = ["run", "--mode", "lockstep", "--one-process", "--duration", "2"]
+    assert cli_main.main([*argv, "--out", str(tmp_path)]) == 0
+    (end,) = [r for topic, _, r in read_records(tmp_path / "run.mcap") if topic == "/run/end"]
+    assert end["status"] == "completed"
+    with pytest.raises(AssertionError, match="a worker was started"):
+        cli_main.main(["run", "--mode", "lockstep", "--duration", "2", "--out", str(tmp_path)])
 
 
 # -- small cores, to see the order and the failures ---------------------------------------
