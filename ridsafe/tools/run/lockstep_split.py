@@ -40,8 +40,7 @@ from typing import Any, Protocol, cast
 from ridsafe.common.logsink import LogSink, Record
 from ridsafe.common.router import ByteRouter, Port
 from ridsafe.common.shell import Datagrams, SansIoCore
-from ridsafe.tools.runlog.child_writer import ctrl_c_deferred
-from ridsafe.tools.runlog.writer import RecorderError
+from ridsafe.tools.runlog.child_writer import ctrl_c_deferred, pickle_record
 
 __all__ = ["Core", "LaneBuffer", "Roles", "SplitLockstep", "WorkerError", "can_split"]
 
@@ -68,10 +67,7 @@ class LaneBuffer:
     records: list[Pickled] = field(default_factory=list)
 
     def log(self, topic: str, t_s: float, record: Record) -> None:
-        try:
-            self.records.append(pickle.dumps((topic, t_s, record), pickle.HIGHEST_PROTOCOL))
-        except (pickle.PicklingError, TypeError, AttributeError) as exc:
-            raise RecorderError(f"{topic}: record cannot be handed to the recorder: {exc}") from exc
+        self.records.append(pickle_record(topic, t_s, record))
 
     def take(self) -> list[Pickled]:
         out, self.records = self.records, []

@@ -40,7 +40,7 @@ from ridsafe.tools.runlog.writer import (
     WriterPlugin,
 )
 
-__all__ = ["RecorderProcess", "ctrl_c_deferred"]
+__all__ = ["RecorderProcess", "ctrl_c_deferred", "pickle_record"]
 
 logger = logging.getLogger(__name__)
 
@@ -96,10 +96,7 @@ class RecorderProcess:
     def log(self, topic: str, t_s: float, record: Record) -> None:
         if self._closed:
             raise RecorderError(f"{topic}: log() after close() of {self.path}")
-        try:
-            self._pending.append(pickle.dumps((topic, t_s, record), pickle.HIGHEST_PROTOCOL))
-        except (pickle.PicklingError, TypeError, AttributeError) as exc:
-            raise RecorderError(f"{topic}: record cannot be handed to the recorder: {exc}") from exc
+        self._pending.append(pickle_record(topic, t_s, record))
         if t_s >= self._next_send_s:  # where the child's recorder flushes (its own rule)
             self._next_send_s = t_s + self._flush_every_s
             self._send()
@@ -154,6 +151,15 @@ class RecorderProcess:
             pass
         code = self._process.exitcode
         return "" if code in (0, None) else f"recorder process exited with code {code}"
+
+
+def pickle_record(topic: str, t_s: float, record: Record) -> bytes:
+    """What crosses to another process for ``log(topic, t_s, record)``: a snapshot of the
+    record now; RecorderError if it cannot be pickled."""
+    try:
+        return pickle.dumps((topic, t_s, record), pickle.HIGHEST_PROTOCOL)
+    except (pickle.PicklingError, TypeError, AttributeError) as exc:
+        raise RecorderError(f"{topic}: record cannot be handed to the recorder: {exc}") from exc
 
 
 @contextlib.contextmanager

@@ -25,7 +25,7 @@ from ridsafe.tools.run.lockstep import run_lockstep
 from ridsafe.tools.run.lockstep_split import LaneBuffer, Roles, SplitLockstep, WorkerError
 from ridsafe.tools.run.scenario import load_scenario_file
 from ridsafe.tools.runlog.reader import read_records
-from ridsafe.tools.runlog.writer import McapRecorder
+from ridsafe.tools.runlog.writer import McapRecorder, RecorderError
 
 pytestmark = pytest.mark.skipif(
     not lockstep_split.can_split(), reason="a split run needs fork and two CPUs"
@@ -220,3 +220,10 @@ with _split(2, Path({str(log_path)!r})) as (run, _):
             break
         time.sleep(0.1)
     assert max(times) == 0.5 and times.count(0.5) == 4  # sim, 2 companions and the GCS
+
+
+def test_a_record_that_cannot_cross_is_an_error_naming_its_topic() -> None:
+    buffer = LaneBuffer()
+    with pytest.raises(RecorderError, match="/test/odd: record cannot be handed"):
+        buffer.log("/test/odd", 1.0, {"f": lambda: None})
+    assert buffer.take() == []
