@@ -40,6 +40,7 @@ from typing import Any, Protocol, cast
 from ridsafe.common.logsink import LogSink, Record
 from ridsafe.common.router import ByteRouter, Port
 from ridsafe.common.shell import Datagrams, SansIoCore
+from ridsafe.tools.run.process import usable_cpus
 from ridsafe.tools.runlog.child_writer import ctrl_c_deferred, pickle_record
 
 __all__ = ["Core", "LaneBuffer", "Roles", "SplitLockstep", "WorkerError", "can_split"]
@@ -75,14 +76,9 @@ class LaneBuffer:
 
 
 def can_split() -> bool:
-    """Whether a run may use a second process here: fork exists and two CPUs are ours."""
-    import os  # noqa: PLC0415
-
-    if "fork" not in multiprocessing.get_all_start_methods():
-        return False
-    usable = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
-    count = len(usable) if usable is not None else (os.cpu_count() or 1)
-    return count >= 2
+    """Whether a run may use a second process here: fork exists and two CPUs are ours (its
+    affinity and its cgroup's quota; on one CPU the two processes would take turns)."""
+    return "fork" in multiprocessing.get_all_start_methods() and usable_cpus() >= 2
 
 
 class Core(SansIoCore, Protocol):

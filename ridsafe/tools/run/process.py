@@ -9,6 +9,8 @@ around a core needs (its arguments are parsed in ``ridsafe.tools.cli.app_args``)
 from __future__ import annotations
 
 import logging
+import math
+import os
 import signal
 import time
 from collections.abc import Callable
@@ -27,6 +29,35 @@ if TYPE_CHECKING:
     from ridsafe.tools.runlog.writer import McapRecorder
 
 logger = logging.getLogger(__name__)
+
+CGROUP_ROOT = Path("/sys/fs/cgroup")
+
+
+def usable_cpus(cgroup_root: Path = CGROUP_ROOT) -> int:
+    """CPUs this process may use: those in its affinity mask, and no more than its cgroup's
+    CPU quota (a container's ``--cpus``; cgroup v2 ``cpu.max``, v1 ``cpu.cfs_quota_us`` over
+    ``cpu.cfs_period_us``), rounded up; at least 1."""
+    count = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    quota = _cgroup_cpu_quota(cgroup_root)
+    if quota is not None:
+        count = min(count or 1, math.ceil(quota))
+    return max(count or 1, 1)
+
+
+def _cgroup_cpu_quota(root: Path) -> float | None:
+    """The cgroup's CPU quota in CPUs, or None (no limit, or no cgroup file to read)."""
+    try:
+        if (root / "cpu.max").is_file():
+            quota, period = (root / "cpu.max").read_text().split()[:2]
+        else:
+            quota = (root / "cpu" / "cpu.cfs_quota_us").read_text().strip()
+            period = (root / "cpu" / "cpu.cfs_period_us").read_text().strip()
+        if quota in ("max", "-1"):
+            return None
+        cpus = float(quota) / float(period)
+    except (OSError, ValueError):
+        return None
+    return cpus if cpus > 0.0 else None
 
 
 def make_clock(speed: float, t0_unix: float | None) -> RunnerClock:

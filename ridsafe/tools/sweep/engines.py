@@ -37,6 +37,7 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
+from ridsafe.tools.run import process
 from ridsafe.tools.run.scenario import ScenarioFile
 from ridsafe.tools.sweep.folder import LOG_FILE, Metrics, RunOutcome, RunStatus, run_metrics
 from ridsafe.tools.sweep.plan import RunSpec, scenario_for
@@ -139,7 +140,7 @@ def failed(spec: RunSpec, reason: str) -> RunOutcome:
 
 def default_workers() -> int:
     """Every core this process may use."""
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    return process.usable_cpus()
 
 
 @contextlib.contextmanager

@@ -96,3 +96,29 @@ def test_a_stop_request_cuts_the_wait_for_the_start_short() -> None:
     assert stopped == ["runner"]
     stop.set()  # and again later: every forward target hears it
     assert stopped == ["runner", "runner"]
+
+
+def _affinity() -> int:
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+@pytest.mark.parametrize(
+    ("files", "expected"),
+    [
+        ({}, None),  # no cgroup files: the affinity mask alone
+        ({"cpu.max": "max 100000\n"}, None),  # v2, no limit
+        ({"cpu.max": "50000 100000\n"}, 1),  # v2, half a CPU: one
+        ({"cpu.max": "150000 100000\n"}, 2),  # v2, 1.5 CPUs: two (rounded up)
+        ({"cpu/cpu.cfs_quota_us": "-1\n", "cpu/cpu.cfs_period_us": "100000\n"}, None),  # v1
+        ({"cpu/cpu.cfs_quota_us": "100000\n", "cpu/cpu.cfs_period_us": "100000\n"}, 1),
+        ({"cpu.max": "garbage\n"}, None),  # unreadable: no limit assumed
+    ],
+)
+def test_usable_cpus_is_the_affinity_mask_within_the_cgroup_quota(
+    tmp_path: Path, files: dict[str, str], expected: int | None
+) -> None:
+    for name, text in files.items():
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_text(text)
+    want = _affinity() if expected is None else min(expected, _affinity())
+    assert process.usable_cpus(tmp_path) == want
