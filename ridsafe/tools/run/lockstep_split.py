@@ -52,7 +52,8 @@ _ANSWER_TIMEOUT_S = 120.0
 _CLOSE_TIMEOUT_S = 600.0
 _JOIN_TIMEOUT_S = 10.0
 #: This process looks for the worker's answer this long before it sleeps on the pipe: the
-#: answer usually comes sooner than a sleeping process is woken (about 70 us a wake-up).
+#: answer often comes sooner than a sleeping process is woken (tens of microseconds; it
+#: waits twice a tick).
 _SPIN_S = 100e-6
 #: Records the worker lets wait for a quiet moment; beyond, it writes them before it answers.
 _MAX_PENDING_RECORDS = 200_000
@@ -84,7 +85,7 @@ def can_split() -> bool:
 class Core(SansIoCore, Protocol):
     """A lockstep core: ``handle`` every tick, ``finish`` once at the end of the run."""
 
-    def finish(self, now_s: float) -> Datagrams: ...
+    def finish(self, now_s: float) -> object: ...  # what it returns is not sent
 
 
 class WorkerError(RuntimeError):
