@@ -13,7 +13,6 @@ import functools
 import gc
 import hashlib
 import logging
-import pickle
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -199,8 +198,8 @@ def _run_split(
         serial = build(loaded, planner, buffer)
     except KeyboardInterrupt:
         with process.open_run_log(log_path, origin, foxglove) as log:
-            for topic, t_s, record in map(pickle.loads, buffer.take()):
-                log.log(topic, t_s, record)
+            for blob in buffer.take():  # the meta and what the cores logged while built
+                lockstep_split.log_pickled(blob, log)
             return _not_started(log, log_path, wall_start)
     build_s = time.perf_counter() - build_start
     roles = lockstep_split.Roles(SIM, GCS, tuple(map(companion_core, serial.companions)))

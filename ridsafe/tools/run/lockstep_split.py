@@ -43,7 +43,15 @@ from ridsafe.common.shell import Datagrams, SansIoCore
 from ridsafe.tools.run.process import usable_cpus
 from ridsafe.tools.runlog.child_writer import ctrl_c_deferred, pickle_record
 
-__all__ = ["Core", "LaneBuffer", "Roles", "SplitLockstep", "WorkerError", "can_split"]
+__all__ = [
+    "Core",
+    "LaneBuffer",
+    "Roles",
+    "SplitLockstep",
+    "WorkerError",
+    "can_split",
+    "log_pickled",
+]
 
 #: How long this process waits for the worker's answer before calling it dead (s). A tick is
 #: milliseconds; the first tick of the GCS (its kernels warm) under a second.
@@ -74,6 +82,11 @@ class LaneBuffer:
     def take(self) -> list[Pickled]:
         out, self.records = self.records, []
         return out
+
+
+def log_pickled(blob: Pickled, sink: LogSink) -> None:
+    """Log one record of a :class:`LaneBuffer` to ``sink`` as its core logged it."""
+    sink.log(*pickle.loads(blob))
 
 
 def can_split() -> bool:
@@ -279,7 +292,7 @@ class _Writer:
             self.write_one()
 
     def write_one(self) -> None:
-        self.log.log(*pickle.loads(self.pending.popleft()))
+        log_pickled(self.pending.popleft(), self.log)
 
     def wait_for(self, conn: multiprocessing.connection.Connection) -> Any:
         """The next message on ``conn``, writing pending records until it is there."""

@@ -20,7 +20,7 @@ from ridsafe.common.logsink import LogSink, MemorySink, Record
 from ridsafe.common.router import ByteRouter, Wire
 from ridsafe.common.shell import Datagrams
 from ridsafe.tools.cli import entry_point as cli_main
-from ridsafe.tools.run import lockstep_split
+from ridsafe.tools.run import lockstep, lockstep_split
 from ridsafe.tools.run.lockstep import run_lockstep
 from ridsafe.tools.run.lockstep_split import LaneBuffer, Roles, SplitLockstep, WorkerError
 from ridsafe.tools.run.scenario import load_scenario_file
@@ -227,3 +227,17 @@ def test_a_record_that_cannot_cross_is_an_error_naming_its_topic() -> None:
     with pytest.raises(RecorderError, match="/test/odd: record cannot be handed"):
         buffer.log("/test/odd", 1.0, {"f": lambda: None})
     assert buffer.take() == []
+
+
+def test_ctrl_c_while_the_cores_are_built_leaves_a_log_that_says_so(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def interrupted(*_args: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(lockstep, "build", interrupted)
+    path = tmp_path / "run.mcap"
+    result = run_lockstep(load_scenario_file(), "aware", path, split=True)
+    assert result.status == "interrupted" and result.sim_time_s == 0.0
+    topics = [topic for topic, _, _ in read_records(path)]
+    assert topics == ["/run/meta", "/run/end"]
