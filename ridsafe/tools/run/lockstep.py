@@ -198,7 +198,7 @@ def _run_split(
         serial = build(loaded, planner, buffer)
     except KeyboardInterrupt:
         with process.open_run_log(log_path, origin, foxglove) as log:
-            for blob in buffer.take():  # the meta and what the cores logged while built
+            for _, blob in buffer.take():  # the meta and what the cores logged while built
                 lockstep_split.log_pickled(blob, log)
             return _not_started(log, log_path, wall_start)
     build_s = time.perf_counter() - build_start

@@ -4,11 +4,15 @@ The serial run (:class:`~ridsafe.tools.run.lockstep.Lockstep`) calls, every tick
 companions in system-id order and the GCS. Two facts let half of that run elsewhere: within
 a tick the companions never hear one another, and the GCS of tick t and the sim of tick t+1
 need nothing from each other (the GCS's replies reach the companions at t+1; the sim hears
-the companions of tick t). So a forked worker runs the GCS and the second half of the
-companions, this process the sim and the first half:
+the companions of tick t). So a forked worker runs the GCS and every other companion, this
+process the sim and the rest:
 
-    this process:  sim(t)    | companions[:k](t) | sim(t+1)  | ...
-    worker:        GCS(t-1)  | companions[k:](t) | GCS(t)    | ...
+    this process:  sim(t)    | companions[0::2](t) | sim(t+1)  | ...
+    worker:        GCS(t-1)  | companions[1::2](t) | GCS(t)    | ...
+
+Every other companion, not the first half and the second: the scenarios launch aircraft in
+system-id order, so halves would differ in how many fly (and plan) at a time, and each
+exchange waits for the slower process.
 
 At each ``|`` the two exchange the datagrams that cross between them (this process sends
 first, the worker receives first, so neither can block the other on a full pipe). Every core
@@ -17,10 +21,11 @@ does the same thing.
 
 The worker also writes the log, in the time it waits for this process (one record at a time,
 looking for the next message between two). A core's records go to its process's
-:class:`LaneBuffer` (pickled when logged: a snapshot, as the recorder's own pickling is); this
-process sends its own with the datagrams, and the worker writes them all in the serial order
-(GCS(t-1), sim(t), companions by system id). A third process (the recorder child of a serial
-run) would take the core from one of the two at random moments and hold up both.
+:class:`LaneBuffer` (pickled when logged: a snapshot, as the recorder's own pickling is),
+each tagged with the core that logged it; this process sends its own with the datagrams, and
+the worker writes them all in the serial order (GCS(t-1), sim(t), companions by system id).
+A third process (the recorder child of a serial run) would take the core from one of the two
+at random moments and hold up both.
 """
 
 from __future__ import annotations
@@ -33,7 +38,7 @@ import pickle
 import signal
 import time
 import traceback
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol, cast
 
@@ -50,6 +55,7 @@ __all__ = [
     "SplitLockstep",
     "WorkerError",
     "can_split",
+    "in_serial_order",
     "log_pickled",
 ]
 
@@ -69,24 +75,47 @@ _MAX_PENDING_RECORDS = 200_000
 Pickled = bytes  # pickle of (topic, t_s, record)
 
 
+Lane = str  # the core that logged a record ('' outside every core's step)
+Laned = tuple[Lane, Pickled]
+
+
 @dataclass
 class LaneBuffer:
     """The ``LogSink`` of every core of one process of a split run: records, pickled, in the
-    order they were logged, until :meth:`take`."""
+    order they were logged, each with the core that logged it (:meth:`lane`), until
+    :meth:`take`."""
 
-    records: list[Pickled] = field(default_factory=list)
+    records: list[Laned] = field(default_factory=list)
+    _lane: Lane = ""
 
     def log(self, topic: str, t_s: float, record: Record) -> None:
-        self.records.append(pickle_record(topic, t_s, record))
+        self.records.append((self._lane, pickle_record(topic, t_s, record)))
 
-    def take(self) -> list[Pickled]:
+    def take(self) -> list[Laned]:
         out, self.records = self.records, []
         return out
+
+    @contextlib.contextmanager
+    def lane(self, core: Lane) -> Iterator[None]:
+        """What is logged in the block is ``core``'s."""
+        self._lane = core
+        try:
+            yield
+        finally:
+            self._lane = ""
 
 
 def log_pickled(blob: Pickled, sink: LogSink) -> None:
     """Log one record of a :class:`LaneBuffer` to ``sink`` as its core logged it."""
     sink.log(*pickle.loads(blob))
+
+
+def in_serial_order(records: Iterable[Laned], order: Sequence[Lane]) -> list[Laned]:
+    """``records`` of cores that stepped side by side, as the serial run logs them: core by
+    core in ``order`` (the router's), each core's in the order it logged them; records of
+    no core first."""
+    rank = {core: index for index, core in enumerate(order)}
+    return sorted(records, key=lambda laned: rank.get(laned[0], -1))
 
 
 def can_split() -> bool:
@@ -152,11 +181,10 @@ class SplitLockstep:
         self._roles = roles
         self._buffer = buffer
         names = list(roles.companions)
-        half = (len(names) + 1) // 2
-        self._names, self._there_names = names, names[half:]
+        self._names, self._there_names = names, names[1::2]
         cores = cast(dict[str, Core], router.cores)
-        self._here = [(name, cores[name]) for name in names[:half]]
-        there = [(name, cores[name]) for name in names[half:]]
+        self._here = [(name, cores[name]) for name in names[0::2]]
+        there = [(name, cores[name]) for name in self._there_names]
         self._sim = cores[roles.sim]
         self._routes = _Routes(router)
         self._sim_inbox: Datagrams = []
@@ -199,18 +227,19 @@ class SplitLockstep:
     def _step(self, now_s: float) -> None:
         sim_inbox, self._sim_inbox = self._sim_inbox, []
         to_companions: dict[str, Datagrams] = {name: [] for name in self._names}
-        self._routes.split(self._roles.sim, self._sim.handle(now_s, sim_inbox), to_companions)
+        with self._buffer.lane(self._roles.sim):
+            sent_by_sim = self._sim.handle(now_s, sim_inbox)
+        self._routes.split(self._roles.sim, sent_by_sim, to_companions)
         there = {name: to_companions[name] for name in self._there_names}
         self._conn.send(("step", now_s, there, self._buffer.take()))
         from_gcs: dict[str, Datagrams] = self._answer(_ANSWER_TIMEOUT_S)
-        sim, gcs = self._roles.sim, self._roles.gcs
-        sent: dict[str, Datagrams] = {sim: self._sim_inbox, gcs: []}  # by the companions here
-        for name, core in self._here:
-            inbound = from_gcs[name] + to_companions[name]
-            self._routes.split(name, core.handle(now_s, inbound), sent)
-        self._conn.send((sent[gcs], self._buffer.take()))
-        to_sim: Datagrams = self._answer(_ANSWER_TIMEOUT_S)
-        self._sim_inbox.extend(to_sim)
+        inboxes = {name: from_gcs[name] + to_companions[name] for name, _ in self._here}
+        to_sim, to_gcs = _step_companions(
+            self._routes, self._roles, self._here, inboxes, now_s, self._buffer
+        )
+        self._conn.send((to_gcs, self._buffer.take()))
+        to_sim.update(self._answer(_ANSWER_TIMEOUT_S))
+        self._sim_inbox = _in_companion_order(to_sim, self._names)
 
     def finish(self) -> None:
         """The serial run's ``finish``: after the last tick's GCS, the companions, the GCS and
@@ -220,8 +249,9 @@ class SplitLockstep:
         self._finished = True
         now_s = self.t_s
         with ctrl_c_deferred():
-            for _, core in self._here:
-                core.finish(now_s)
+            for name, core in self._here:
+                with self._buffer.lane(name):
+                    core.finish(now_s)
             self._conn.send(("finish", now_s, {}, self._buffer.take()))
             self._answer(_ANSWER_TIMEOUT_S)  # the worker's companions and the GCS are done
             self._sim.finish(now_s)
@@ -281,18 +311,18 @@ def _spin(conn: multiprocessing.connection.Connection) -> bool:
 class _Writer:
     """The worker's log: records wait in order and are written while the worker waits."""
 
-    def __init__(self, log: LogSink, first: Sequence[Pickled]) -> None:
+    def __init__(self, log: LogSink, first: Sequence[Laned]) -> None:
         self.log = log
-        self.pending: collections.deque[Pickled] = collections.deque(first)
+        self.pending: collections.deque[Laned] = collections.deque(first)
         self.closed = False
 
-    def add(self, records: Sequence[Pickled]) -> None:
+    def add(self, records: Sequence[Laned]) -> None:
         self.pending.extend(records)
         while len(self.pending) > _MAX_PENDING_RECORDS:
             self.write_one()
 
     def write_one(self) -> None:
-        log_pickled(self.pending.popleft(), self.log)
+        log_pickled(self.pending.popleft()[1], self.log)
 
     def wait_for(self, conn: multiprocessing.connection.Connection) -> Any:
         """The next message on ``conn``, writing pending records until it is there."""
@@ -359,34 +389,63 @@ def _serve(
     the caller (``_Writer.close``)."""
     gcs = cast(Core, routes.router.cores[roles.gcs])
     mine = {name for name, _ in cores}
+    order = routes.router.order
     gcs_inbox: Datagrams = []
     gcs_now_s: float | None = None
     while True:
         to_companions: dict[str, Datagrams] = {name: [] for name in roles.companions}
         if gcs_now_s is not None:
-            routes.split(roles.gcs, gcs.handle(gcs_now_s, gcs_inbox), to_companions)
+            with buffer.lane(roles.gcs):
+                sent_by_gcs = gcs.handle(gcs_now_s, gcs_inbox)
+            routes.split(roles.gcs, sent_by_gcs, to_companions)
             gcs_now_s = None
         writer.add(buffer.take())  # the GCS's records come before the sim's of the next tick
         kind, now_s, from_sim, records = writer.wait_for(conn)
-        writer.add(records)
+        if kind != "finish":
+            writer.add(records)
         if kind == "close":
             return
         if kind == "finish":  # the run's companions said goodbye; now these and the GCS
-            for _, core in cores:
-                core.finish(now_s)
-            gcs.finish(now_s)
-            writer.add(buffer.take())
+            for name, core in cores:
+                with buffer.lane(name):
+                    core.finish(now_s)
+            with buffer.lane(roles.gcs):
+                gcs.finish(now_s)
+            writer.add(in_serial_order([*records, *buffer.take()], order))
             conn.send(("ok", None))
             continue
         theirs = {name: sent for name, sent in to_companions.items() if name not in mine}
         conn.send(("ok", theirs))
-        sent: dict[str, Datagrams] = {roles.sim: [], roles.gcs: []}  # by the companions here
-        for name, core in cores:
-            inbound = to_companions[name] + from_sim[name]
-            routes.split(name, core.handle(now_s, inbound), sent)
+        inboxes = {name: to_companions[name] + from_sim[name] for name, _ in cores}
+        to_sim, to_gcs = _step_companions(routes, roles, cores, inboxes, now_s, buffer)
         from_here, records = writer.wait_for(conn)
-        writer.add(records)  # the run's companions, then these
-        writer.add(buffer.take())
-        conn.send(("ok", sent[roles.sim]))
-        gcs_inbox = from_here + sent[roles.gcs]
+        writer.add(in_serial_order([*records, *buffer.take()], order))  # both processes'
+        conn.send(("ok", to_sim))
+        gcs_inbox = _in_companion_order({**from_here, **to_gcs}, roles.companions)
         gcs_now_s = now_s
+
+
+def _step_companions(
+    routes: _Routes,
+    roles: Roles,
+    cores: Sequence[tuple[str, Core]],
+    inboxes: dict[str, Datagrams],
+    now_s: float,
+    buffer: LaneBuffer,
+) -> tuple[dict[str, Datagrams], dict[str, Datagrams]]:
+    """One tick of ``cores`` (companions), each logging in its own lane; what each sent to
+    the sim and what to the GCS, by companion."""
+    to_sim: dict[str, Datagrams] = {}
+    to_gcs: dict[str, Datagrams] = {}
+    for name, core in cores:
+        sent: dict[str, Datagrams] = {roles.sim: [], roles.gcs: []}
+        with buffer.lane(name):
+            routes.split(name, core.handle(now_s, inboxes[name]), sent)
+        to_sim[name], to_gcs[name] = sent[roles.sim], sent[roles.gcs]
+    return to_sim, to_gcs
+
+
+def _in_companion_order(by_companion: dict[str, Datagrams], names: Sequence[str]) -> Datagrams:
+    """The datagrams of every companion, one after the other in ``names``' order (the order
+    the serial router steps them in)."""
+    return [datagram for name in names for datagram in by_companion[name]]

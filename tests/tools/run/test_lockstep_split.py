@@ -168,7 +168,7 @@ def test_every_core_is_handed_what_the_serial_run_hands_it_in_the_same_order(
     assert len(handed) == 6 * (n + 2) and (n == 0 or all(handed[-(n + 2) :]))
 
 
-@pytest.mark.parametrize("failing", ["companion/3", "gcs"])
+@pytest.mark.parametrize("failing", ["companion/2", "gcs"])  # the worker's
 def test_a_core_failing_in_the_worker_is_an_error_and_the_log_is_finished(
     failing: str, tmp_path: Path
 ) -> None:
