@@ -403,10 +403,6 @@ def _serve(
             gcs_now_s = None
         writer.add(buffer.take())  # the GCS's records come before the sim's of the next tick
         kind, now_s, from_sim, records = writer.wait_for(conn)
-        if kind != "finish":
-            writer.add(records)
-        if kind == "close":
-            return
         if kind == "finish":  # the run's companions said goodbye; now these and the GCS
             for name, core in cores:
                 with buffer.lane(name):
@@ -416,6 +412,9 @@ def _serve(
             writer.add(in_serial_order([*records, *buffer.take()], order))
             conn.send(("ok", None))
             continue
+        writer.add(records)
+        if kind == "close":
+            return
         theirs = {name: sent for name, sent in to_companions.items() if name not in mine}
         conn.send(("ok", theirs))
         inboxes = {name: to_companions[name] + from_sim[name] for name, _ in cores}
