@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import os
+import pickle
 import signal
 import subprocess
 import sys
@@ -166,6 +167,26 @@ def test_every_core_is_handed_what_the_serial_run_hands_it_in_the_same_order(
     assert written == _rounded([*_serial(n, 6), ("/test/end", 0.6, {"core": "run"})])
     handed = [record["got"] for topic, _, record in written if topic == "/test/handle"]
     assert len(handed) == 6 * (n + 2) and (n == 0 or all(handed[-(n + 2) :]))
+
+
+def test_records_are_merged_core_by_core_in_the_router_s_order() -> None:
+    """Two processes' records of one step: each core's in the order it logged them, the cores
+    in the router's order, records of no core first."""
+    buffer = LaneBuffer()
+    for core, topic in [("c3", "/a"), ("c1", "/b"), ("", "/meta"), ("c3", "/c"), ("c2", "/d")]:
+        with buffer.lane(core):
+            buffer.log(topic, 1.0, {})
+    buffer.log("/after", 1.0, {})  # outside every lane again
+    merged = lockstep_split.in_serial_order(buffer.take(), ["sim", "c1", "c2", "c3", "gcs"])
+    assert [lane for lane, _ in merged] == ["", "", "c1", "c2", "c3", "c3"]
+    assert [pickle.loads(blob)[0] for _, blob in merged] == [
+        "/meta",
+        "/after",
+        "/b",
+        "/d",
+        "/a",
+        "/c",
+    ]
 
 
 @pytest.mark.parametrize("failing", ["companion/2", "gcs"])  # the worker's
