@@ -34,11 +34,18 @@ far. Then the actions with B_a >= J* are scored in decreasing B_a until B_a < J*
 and every later one has J < J*, so the safe argmax cannot change. The goal-only argmax is
 kept by scoring G_a alone (no hazards) for every action inside the altitude band whose
 U_a + b_a is not below F* (the best G + b scored so far). Strict < keeps ties scored (argmax
-takes the first of equal values). Floating point: every step is a rounded +, x, /, sqrt or
-exp; rounding is monotone except exp (only faithfully rounded) and the chord's own
-arithmetic, whose errors are a few ulps of V: U_a is inflated by 1e-9 of itself and 1e-18
-of V(0) (far above them) to cover it. With no safe action scored, J* = -inf and every action
-is scored: the fallback (least intrusion) sees them all.
+takes the first of equal values). Once ``TIGHTEN_AFTER`` actions are scored (crowded
+decisions, where h_a,1 is far above the hazard the best actions meet later), each next one is
+first bounded again with the hazard of its middle and last samples as if no conflict had
+lasted yet: ln|R(t)| does not decrease with t (the config refuses a reward that grows toward
+zero), so that h is at least the scoring's h_a,k, and H_a <= h_a,k for every k (the mean
+term is not positive). Raised by BOUND_SLACK of itself for exp's rounding, it replaces
+h_a,1 in B_a where it is lower; an action whose tightened bound is below J* is left unscored
+(its G_a as below if the goal-only argmax needs it). Floating point: every step is a
+rounded +, x, /, sqrt or exp; rounding is monotone except exp (only faithfully rounded) and
+the chord's own arithmetic, whose errors are a few ulps of V: U_a is inflated by 1e-9 of
+itself and 1e-18 of V(0) (far above them) to cover it. With no safe action scored,
+J* = -inf and every action is scored: the fallback (least intrusion) sees them all.
 ``tests/companion/test_planner_kernel.py`` checks the choice against ``score_all`` on random
 scenes of every kind.
 
@@ -79,6 +86,9 @@ ENVELOPE_SLACK_M = 1.0
 # U_a is inflated by this much relative to itself, and by its square relative to V(0): it
 # covers exp's last-ulp non-monotonicity and the rounding of the sums and the chord.
 BOUND_SLACK = 1e-9
+#: Actions scored before each next one's bound is tightened by its later samples' hazard (a
+#: decision that stops sooner pays nothing for it).
+TIGHTEN_AFTER = 32
 
 
 def _jit(fn: _F) -> _F:
@@ -228,6 +238,7 @@ def _score_bounded_kernel(
     conflicts = np.zeros(nb_by_time.shape[1], dtype=np.int64)
     goal_bound = np.empty(n_a)  # U_a + b_a
     key = np.empty(n_a)  # -((U_a + h_a,1) + b_a): ascending = most promising first
+    u_h1 = np.empty((n_a, 2))  # U_a, h_a,1
     for a in range(n_a):
         _rollout_into(p0, v0, va[a], tau, kp.accel, path)
         ok[a] = _envelope_and_bound(path, goal, p0[2], kp, goal_bound, a)
@@ -235,6 +246,7 @@ def _score_bounded_kernel(
         x, y, z = path[0, 0], path[0, 1], path[0, 2]
         h_first = _hazard_at(x, y, z, 0, near, n_near, ln_reward, conflicts, regions, kp)[0]
         key[a] = -((goal_bound[a] + h_first) + bias[a])
+        u_h1[a, 0], u_h1[a, 1] = goal_bound[a], h_first
         goal_bound[a] += bias[a]
         out[0, a], out[1, a], out[2, a], out[3, a] = -np.inf, -np.inf, np.inf, np.nan
     key[n_a - 1] = -np.inf  # the hover first, then the most promising other action: their
@@ -246,11 +258,19 @@ def _score_bounded_kernel(
     done = np.zeros(n_a, dtype=np.bool_)
     done[n_a - 1] = done[int(np.argmin(key[: n_a - 1]))] = True
     rest = np.flatnonzero(-key >= best)  # all when no safe action yet (best = -inf)
+    ln_none = np.full(ln_reward.shape[0], ln_reward[0])  # every count as no conflict time
+    scored = 2
     for a in rest[np.argsort(key[rest])]:
         if -key[a] < best:
             break  # this bound and every later one: below J*
         if done[a]:
             continue
+        if scored >= TIGHTEN_AFTER:
+            h_later = _later_hazard_bound(p0, v0, va[a], tau, near, n_near, ln_none, conflicts,
+                                          regions, kp)  # fmt: skip
+            if (u_h1[a, 0] + min(u_h1[a, 1], h_later)) + bias[a] < best:
+                continue  # below J* (its G, if the goal-only argmax needs it, below)
+        scored += 1
         done[a] = True
         _score_action(a, p0, v0, goal, va, tau, near, n_near, ln_reward, regions, kp, path,
                       conflicts, out, ok)  # fmt: skip
@@ -444,17 +464,63 @@ def _rollout_into(
     p0: FloatArray, v0: FloatArray, va: FloatArray, tau: FloatArray, accel: float, path: FloatArray
 ) -> None:
     """actions eq. 2: ``path[k]`` = p(tau_k) of the velocity ramp from v0 to va."""
+    ramp = _ramp(v0, va, accel)
+    for k in range(tau.shape[0]):
+        path[k, 0], path[k, 1], path[k, 2] = _position(p0, v0, va, ramp, tau[k])
+
+
+@_inline
+def _ramp(v0: FloatArray, va: FloatArray, accel: float) -> tuple[float, float, float, float, float]:
+    """(dv, the ramp's duration, half the acceleration per unit dv) of actions eq. 2."""
     dvx, dvy, dvz = va[0] - v0[0], va[1] - v0[1], va[2] - v0[2]
     dv = math.sqrt(dvx * dvx + dvy * dvy + dvz * dvz)
-    t_ramp = dv / accel
     scale = 0.5 * accel / dv if dv > 1e-9 else 0.0  # half the acceleration vector, per unit dv
-    for k in range(tau.shape[0]):
-        ti = min(tau[k], t_ramp)
-        rest = tau[k] - ti
-        ramp = scale * ti * ti
-        path[k, 0] = p0[0] + v0[0] * ti + ramp * dvx + va[0] * rest
-        path[k, 1] = p0[1] + v0[1] * ti + ramp * dvy + va[1] * rest
-        path[k, 2] = p0[2] + v0[2] * ti + ramp * dvz + va[2] * rest
+    return dvx, dvy, dvz, dv / accel, scale
+
+
+@_inline
+def _position(
+    p0: FloatArray,
+    v0: FloatArray,
+    va: FloatArray,
+    ramp: tuple[float, float, float, float, float],
+    tau: float,
+) -> tuple[float, float, float]:
+    """p(tau) of actions eq. 2, given its ``_ramp``."""
+    dvx, dvy, dvz, t_ramp, scale = ramp
+    ti = min(tau, t_ramp)
+    rest = tau - ti
+    half_a_t2 = scale * ti * ti
+    return (
+        p0[0] + v0[0] * ti + half_a_t2 * dvx + va[0] * rest,
+        p0[1] + v0[1] * ti + half_a_t2 * dvy + va[1] * rest,
+        p0[2] + v0[2] * ti + half_a_t2 * dvz + va[2] * rest,
+    )
+
+
+@_inline
+def _later_hazard_bound(
+    p0: FloatArray,
+    v0: FloatArray,
+    va: FloatArray,
+    tau: FloatArray,
+    near: FloatArray,
+    n_near: NDArray[np.int64],
+    ln_none: FloatArray,
+    scratch: NDArray[np.int64],
+    regions: Regions,
+    kp: KernelParams,
+) -> float:
+    """An upper bound of H_a from its middle and last samples (module docstring): h there
+    as if no conflict had lasted yet (``ln_none``: ln|R(0)| for every count), raised by
+    BOUND_SLACK of itself."""
+    ramp = _ramp(v0, va, kp.accel)
+    h = 0.0
+    for k in (tau.shape[0] // 2, tau.shape[0] - 1):
+        x, y, z = _position(p0, v0, va, ramp, tau[k])
+        scratch[:] = 0
+        h = min(h, _hazard_at(x, y, z, k, near, n_near, ln_none, scratch, regions, kp)[0])
+    return h * (1.0 - BOUND_SLACK)
 
 
 @_jit

@@ -14,6 +14,7 @@ from ridsafe.companion.planner import choose_action
 from ridsafe.companion.planner_api import Neighbour, Region
 from ridsafe.companion.planner_config import PlannerConfig
 from ridsafe.companion.planner_eval import KernelParams, RolloutScores, build_scene, score_actions
+from ridsafe.companion.planner_kernel import TIGHTEN_AFTER
 
 FloatArray = NDArray[np.float64]
 CHI2_95 = 7.814727903251178
@@ -126,3 +127,12 @@ def test_a_clear_sky_scores_few_actions() -> None:
     assert bounded.n_scored < len(actions) // 10
     every = score_actions(p0, v0, goal, actions, scene, kp)
     assert choose_action(bounded, actions, cfg) == choose_action(every, actions, cfg)
+
+
+def test_hazards_met_later_tighten_the_bound() -> None:
+    """Random case 36 (default config): the first sample's hazard leaves every action's bound
+    above the best one found (all 1,095 were scored with it alone); the hazard of the middle
+    and last samples (``planner_kernel.TIGHTEN_AFTER``) leaves about a fifth, and the choice
+    is the one scoring every action makes (``_both`` asserts it)."""
+    _, bounded, _, _, _ = _both(PlannerConfig(), 36)
+    assert TIGHTEN_AFTER < bounded.n_scored < 300
