@@ -88,7 +88,7 @@ class LaneBuffer:
     :meth:`take`."""
 
     records: list[Laned] = field(default_factory=list)
-    _lane: Lane = ""
+    _lane: Lane = field(default="", init=False, repr=False)
 
     def log(self, topic: str, t_s: float, record: Record) -> None:
         self.records.append((self._lane, pickle_record(topic, t_s, record)))
