@@ -39,6 +39,7 @@ def readonly(values: object) -> FloatArray:
     return arr
 
 
+@quick_init
 @dataclass(frozen=True, eq=False)
 class ObservedClaim:
     """One RID broadcast's claim (who, where, how fast) with every reception of it that the
