@@ -3,7 +3,8 @@ must not be flagged. The fleet's own aircraft are protected by the cooperative v
 outsider is not, and the sweeps had none: the family's spoofer with its lie set to zero is
 one (docs/results/robustness.md, "An honest aircraft outside the fleet is flagged on the
 urban preset": 9 of 10 urban runs at 8 aircraft flag it, most when the fit starts and the
-held claims are decided against an empirical null of aircraft still on their pads)."""
+held claims are decided against an empirical null of aircraft still on their pads; later
+its honest statistics still run above the fleet's, for a reason not found yet)."""
 
 from __future__ import annotations
 
@@ -39,8 +40,8 @@ def test_an_honest_outsider_is_not_alerted_on_a_channel_the_gcs_fits(tmp_path: P
 @pytest.mark.xfail(
     strict=True,
     raises=AssertionError,
-    reason="known: the urban preset's first alerts are decided against an empirical null of "
-    "aircraft still on their pads (robustness.md, 'An honest aircraft outside the fleet')",
+    reason="known: an honest aircraft outside the fleet is flagged on the urban preset "
+    "(robustness.md, 'An honest aircraft outside the fleet')",
 )
 def test_an_honest_outsider_is_not_alerted_on_the_urban_preset(tmp_path: Path) -> None:
     assert _alerts_on_an_honest_outsider(tmp_path, "urban.yaml", 1) == []
