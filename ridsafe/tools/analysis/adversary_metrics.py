@@ -86,23 +86,6 @@ def harm_lie_m(run: RunLog) -> float:
     return max(d_safe - run.nmac_threshold_m, 0.0)
 
 
-def _lies(run: RunLog) -> dict[str, tuple[FloatArray, FloatArray]]:
-    """serial -> (times, |claimed - true| m) from the truth channel's ``adversaries``."""
-    times: dict[str, list[float]] = {}
-    lies: dict[str, list[float]] = {}
-    for _topic, t_s, record in read_records(run.path, topics=(topics.TRUTH,)):
-        p = record.get("p_enu_m")
-        sysids = record.get("sysid") or []
-        for item in record.get("adversaries") or ():
-            if p is None or item.get("role") != "spoofer" or item["sysid"] not in sysids:
-                continue
-            true = np.asarray(p[sysids.index(item["sysid"])], dtype=np.float64)
-            lie = float(np.linalg.norm(np.asarray(item["claimed_p_enu_m"]) - true))
-            times.setdefault(item["serial"], []).append(t_s)
-            lies.setdefault(item["serial"], []).append(lie)
-    return {k: (np.array(times[k]), np.array(lies[k])) for k in times}
-
-
 def _harm(
     t_s: FloatArray, lie_m: FloatArray, alert_s: float | None, limit_m: float
 ) -> dict[str, Any]:
@@ -166,7 +149,7 @@ def per_adversary(run: RunLog, min_height_m: float) -> list[dict[str, Any]]:
         [c for c in (truth.column(s) for s in run.benign_sysids) if c is not None], dtype=np.int64
     )
     flying = airborne(truth.p_enu_m, truth.armed, min_height_m)
-    lies = _lies(run) if run.path.exists() else {}
+    lies = run.spoofer_lies
     limit_m = harm_lie_m(run)
     rows: list[dict[str, Any]] = []
     for adversary in adversaries_of(run):

@@ -16,7 +16,7 @@ from __future__ import annotations
 import logging
 import os
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -160,6 +160,9 @@ class RunLog:
     decision_compute_ms: FloatArray
     spoofer_heard_s: float | None = None  # heard by DETECTION_RECEIVERS aircraft
     autopilot_failsafes: int = 0  # /sim/events records (companion-loss failsafes)
+    #: serial -> (times, |claimed - true| m) of every spoofer, from the truth channel's
+    #: ``adversaries`` (``adversary_metrics``: when the lie can hurt)
+    spoofer_lies: Mapping[str, tuple[FloatArray, FloatArray]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         _freeze(
@@ -213,7 +216,27 @@ def load_run(path: str | os.PathLike[str]) -> RunLog:
         decision_compute_ms=_compute_ms(by_topic[topics.DECISIONS]),
         spoofer_heard_s=None if spoofer_sysid is None else heard_by_s(path, spoofer_sysid),
         autopilot_failsafes=len(by_topic[topics.SIM_EVENTS]),
+        spoofer_lies=_spoofer_lies(by_topic[topics.TRUTH]),
     )
+
+
+def _spoofer_lies(
+    truth_rows: list[tuple[float, dict[str, Any]]],
+) -> dict[str, tuple[FloatArray, FloatArray]]:
+    """serial -> (times, |claimed - true| m) from the truth records' ``adversaries``."""
+    times: dict[str, list[float]] = {}
+    lies: dict[str, list[float]] = {}
+    for t_s, record in truth_rows:
+        p = record.get("p_enu_m")
+        sysids = record.get("sysid") or []
+        for item in record.get("adversaries") or ():
+            if p is None or item.get("role") != "spoofer" or item["sysid"] not in sysids:
+                continue
+            true = np.asarray(p[sysids.index(item["sysid"])], dtype=np.float64)
+            lie = float(np.linalg.norm(np.asarray(item["claimed_p_enu_m"]) - true))
+            times.setdefault(item["serial"], []).append(t_s)
+            lies.setdefault(item["serial"], []).append(lie)
+    return {k: (np.array(times[k]), np.array(lies[k])) for k in times}
 
 
 def benign_serials(meta: Mapping[str, Any]) -> dict[str, int]:
