@@ -1,5 +1,7 @@
 """The adversaries of a scenario: spoofers (aircraft that fly and lie) and ghosts (transmitters
-that claim an aircraft that does not exist).
+that claim an aircraft that does not exist); and bystanders, aircraft outside the fleet that
+tell the truth (a third party's drone: the GCS knows nothing of it, and an alert on it is a
+false alert).
 
 A spoofer has three independent parts, each a ``kind`` with its parameters (YAML keys as
 written here; a key that does not belong to the chosen kind is an error):
@@ -12,7 +14,9 @@ written here; a key that does not belong to the chosen kind is an error):
   start_s, max_offset_m} (honest until ``start_s``, then the offset grows at ``rate_enu_m_s``
   up to ``max_offset_m``); ``mimic`` {target_serial, delay_s} (where that aircraft was
   ``delay_s`` ago); ``fixed`` {at_enu_m} (hovering at one place); ``waypoints``
-  {waypoints_enu_m, speed_m_s, loop} (a made-up path; what a ghost claims).
+  {waypoints_enu_m, speed_m_s, loop} (a made-up path; what a ghost claims); ``truth`` {}
+  (where it really is: a ``spoofers`` entry with this claim is a *bystander*, not an
+  adversary; its role in the log is ``bystander`` and every alert on it is a false alert).
 - ``tx_power``: ``fixed`` {dbm} or ``random`` {mean_dbm, sigma_db} (a new power every
   message). Absent: ``tx_power_dbm`` or the radio's default, as for a benign aircraft.
 
@@ -40,7 +44,7 @@ AREA_LIMIT_M = 100_000.0
 MAX_SPOOFER_SPEED_M_S = 20.0
 
 MotionKind = Literal["line", "waypoints", "orbit", "pursue"]
-ClaimKind = Literal["offset", "drift", "mimic", "fixed", "waypoints"]
+ClaimKind = Literal["offset", "drift", "mimic", "fixed", "waypoints", "truth"]
 TxPowerKind = Literal["fixed", "random"]
 
 _MOTION_KEYS: dict[str, tuple[str, ...]] = {
@@ -61,6 +65,7 @@ _CLAIM_KEYS: dict[str, tuple[str, ...]] = {
     "mimic": ("target_serial",),
     "fixed": ("at_enu_m",),
     "waypoints": ("waypoints_enu_m", "speed_m_s"),
+    "truth": (),
 }
 _CLAIM_OPTIONAL: dict[str, tuple[str, ...]] = {
     "offset": (),
@@ -68,6 +73,7 @@ _CLAIM_OPTIONAL: dict[str, tuple[str, ...]] = {
     "mimic": ("delay_s",),
     "fixed": (),
     "waypoints": ("loop",),
+    "truth": (),
 }
 
 
@@ -249,7 +255,8 @@ def silent_at(intervals: tuple[tuple[float, float], ...], now_s: float) -> bool:
 
 @dataclass(frozen=True)
 class SpooferConfig:
-    """One spoofer: a vehicle that flies ``motion``, avoids nobody and broadcasts ``claim``.
+    """One spoofer: a vehicle that flies ``motion``, avoids nobody and broadcasts ``claim``
+    (a bystander when the claim is ``truth``: ``role``).
 
     The top-level ``start_enu_m``, ``goal_enu_m``, ``speed_m_s`` and ``offset_enu_m`` are the
     single-spoofer shorthand for a ``line`` motion and an ``offset`` claim; use either them or
@@ -303,6 +310,11 @@ class SpooferConfig:
         if self.claim is not None:
             return self.claim
         return ClaimConfig("offset", offset_enu_m=self.offset_enu_m)
+
+    @property
+    def role(self) -> Literal["spoofer", "bystander"]:
+        """``bystander`` when it tells the truth (claim ``truth``), else ``spoofer``."""
+        return "bystander" if self.resolved_claim.kind == "truth" else "spoofer"
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,6 @@
-"""The scenario's adversaries inside the sim: spoofers (vehicles N+1..N+S) and ghost
-transmitters (after them), for ``ridsafe.sim_backend.world.SimBackend``.
+"""The scenario's adversaries inside the sim: spoofers (vehicles N+1..N+S; those that claim
+the truth are bystanders) and ghost transmitters (after them), for
+``ridsafe.sim_backend.world.SimBackend``.
 
 Per adversary: its mission (``adversary_motion``; a ghost's transmitter holds its position,
 hovering when above ``GHOST_HOVER_MIN_Z_M``, else standing on the ground disarmed), its
@@ -46,7 +47,7 @@ class Adversary:
 
     index: int
     serial: str
-    role: str  # "spoofer" or "ghost"
+    role: str  # "spoofer", "bystander" or "ghost"
     broadcaster: SpooferBroadcaster
     power: TxPowerDraw | None
     airborne: bool  # launched in AUTO (a ghost on the ground is not)
@@ -68,7 +69,7 @@ class Adversaries:
                 Adversary(
                     n + k,
                     spoofer.serial,
-                    "spoofer",
+                    spoofer.role,
                     self._broadcaster(spoofer.serial, claim, spoofer, first=k == 0),
                     self._power(spoofer.serial, spoofer.tx_power),
                     True,

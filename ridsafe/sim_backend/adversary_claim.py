@@ -10,7 +10,8 @@ ENU:
   is kinematically consistent;
 - ``mimic``: where the target aircraft really was ``delay_s`` ago (``TrackHistory``);
 - ``fixed``: hovering at ``at_enu_m``;
-- ``waypoints``: a made-up constant-speed path (a ghost's aircraft).
+- ``waypoints``: a made-up constant-speed path (a ghost's aircraft);
+- ``truth``: the true state (a bystander's honest broadcast).
 
 ``TxPowerDraw.next_dbm()`` gives the power of the next message (a fixed value, or a fresh
 normal draw from its own seeded stream for ``random``).
@@ -70,6 +71,7 @@ class Claim:
             "mimic": self._mimic,
             "fixed": self._fixed,
             "waypoints": self._waypoints,
+            "truth": self._truth,
         }
 
     def state(self, now_s: float, p_enu_m: FloatArray, v_enu_m_s: FloatArray) -> State:
@@ -108,6 +110,9 @@ class Claim:
     def _waypoints(self, now_s: float, p: FloatArray, v: FloatArray) -> State:
         assert self._path is not None
         return self._path.target(now_s)
+
+    def _truth(self, now_s: float, p: FloatArray, v: FloatArray) -> State:
+        return p.copy(), v.copy()
 
 
 class TxPowerDraw:

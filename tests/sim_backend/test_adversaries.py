@@ -113,6 +113,16 @@ def test_drift_is_honest_until_its_start_then_grows_at_its_rate_to_its_cap() -> 
     np.testing.assert_allclose(claimed_v, v)
 
 
+def test_a_bystander_claims_where_it_is() -> None:
+    claim = Claim(ClaimConfig("truth"))
+    p, v = np.array([1.0, 2.0, 60.0]), np.array([1.0, -3.0, 0.5])
+    claimed, claimed_v = claim.state(7.0, p, v)
+    np.testing.assert_array_equal(claimed, p)
+    np.testing.assert_array_equal(claimed_v, v)
+    claimed[0] = 99.0  # the claim is its own copy: the truth is not moved by a consumer
+    assert p[0] == 1.0
+
+
 def test_mimic_claims_where_its_target_was_delay_seconds_ago() -> None:
     history = TrackHistory()
     for k in range(20):

@@ -1,13 +1,16 @@
-"""Metrics per adversary (every spoofer and ghost of ``/run/meta``'s ``adversaries``).
+"""Metrics per adversary (every spoofer and ghost of ``/run/meta``'s ``adversaries``; the
+bystanders listed there, honest aircraft outside the fleet, are no adversaries).
 
 ``compute_metrics`` merges :func:`adversary_metrics` into its result. For a run with one
-spoofer and no ghost the common keys are those ``metrics`` already computes, the same values;
-with several adversaries:
+spoofer, no ghost and no bystander the common keys are those ``metrics`` already computes, the
+same values; with several adversaries or a bystander:
 
 - ``nmac_benign_spoofer``: NMAC entry events of (benign, spoofer) pairs summed over every
-  spoofer's true position (ghost transmitters are not aircraft: not counted);
+  spoofer's true position (ghost transmitters are not aircraft: not counted; nor are
+  bystanders, whose Remote ID tells every planner where they are);
 - ``false_alerts``: ``raised`` alerts for a serial that is no adversary's (a ghost's alert is
-  a true alert);
+  a true alert, a bystander's a false one); ``bystanders_alerted``: how many of
+  ``bystander_count`` bystanders had one;
 - ``containment_rate`` / ``rmse_m``: the mean over spoofers of each one's rate (its regions at
   or after its own first alert, containing its true position) and RMSE (its track), spoofers
   never alerted left out; ``containment_rate_min`` the worst one; ``spoofers_alerted`` how many
@@ -143,7 +146,8 @@ def _rmse(run: RunLog, serial: str, column: int, since_s: float) -> float | None
 
 
 def per_adversary(run: RunLog, min_height_m: float) -> list[dict[str, Any]]:
-    """One row per adversary: serial, role, alert time, containment, RMSE, NMACs (spoofers)."""
+    """One row per adversary: serial, role, alert time, containment, RMSE, NMACs (spoofers);
+    per bystander its serial, role and alert time (a false alert) only."""
     truth = run.truth
     benign = np.array(
         [c for c in (truth.column(s) for s in run.benign_sysids) if c is not None], dtype=np.int64
@@ -170,7 +174,7 @@ def per_adversary(run: RunLog, min_height_m: float) -> list[dict[str, Any]]:
             row["regions_on_ground"] = _on_ground_count(run, serial)
             if serial in lies:
                 row.update(_harm(*lies[serial], alert, limit_m))
-        elif column is not None:
+        elif column is not None and role == "ghost":
             transmitter = np.asarray(adversary.get("transmitter_enu_m"), dtype=np.float64)
             row["region_containment"] = _containment(run, serial, column, -np.inf, transmitter)
             mine = run.regions.select(run.regions.uas_id == serial)
@@ -211,6 +215,7 @@ def adversary_metrics(
     out: Metrics = {"benign_path_length_m": path, "mean_arrival_time_s": arrival}
     spoofers = [a for a in listed if a.get("role") == "spoofer"]
     ghosts = [a for a in listed if a.get("role") == "ghost"]
+    bystanders = [a for a in listed if a.get("role") == "bystander"]
     rows = per_adversary(run, min_height_m)
     out["spoofers_alerted_before_harm"] = sum(
         1 for r in rows if r["role"] == "spoofer" and r.get("alerted_before_harm")
@@ -219,11 +224,11 @@ def adversary_metrics(
     out["spoofer_regions_on_ground"] = sum(
         int(r.get("regions_on_ground") or 0) for r in rows if r["role"] == "spoofer"
     )
-    if len(spoofers) <= 1 and not ghosts:
+    if len(spoofers) <= 1 and not ghosts and not bystanders:
         return out
     spoofer_rows = [r for r in rows if r["role"] == "spoofer"]
     ghost_rows = [r for r in rows if r["role"] == "ghost"]
-    serials = {str(a["serial"]) for a in listed}
+    serials = {str(a["serial"]) for a in spoofers + ghosts}
     containments = [r.get("containment_rate") for r in spoofer_rows]
     known = [c for c in containments if c is not None]
     out.update(
@@ -241,6 +246,11 @@ def adversary_metrics(
             "rmse_m": _mean([r.get("rmse_m") for r in spoofer_rows]),
         }
     )
+    if bystanders:
+        out["bystander_count"] = len(bystanders)
+        out["bystanders_alerted"] = sum(
+            1 for r in rows if r["role"] == "bystander" and r["alert_time_s"] is not None
+        )
     if ghost_rows:
         out["ghosts_alerted"] = sum(1 for r in ghost_rows if r["alert_time_s"] is not None)
         out["ghost_region_containment"] = _mean([r.get("region_containment") for r in ghost_rows])

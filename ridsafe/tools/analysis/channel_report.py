@@ -8,11 +8,13 @@ A sweep is a channel sweep when its config's GCS always fits the channel
 delay median / 90th percentile / worst over runs, false alerts), benign-spoofer NMACs of
 both planners, the aware planner's delivered fraction.
 
-The bar: no false alert; containment >= ``MIN_CONTAINMENT`` and RMSE <= ``MAX_RMSE_M`` (the
-16-aircraft values from 16 aircraft up, the 8-aircraft ones below); detection delay median <=
-``MAX_DELAY_MEDIAN_S`` and 90th percentile <= ``MAX_DELAY_P90_S``; aware benign-spoofer NMACs
-<= ``MAX_AWARE_NMAC`` per run and at most ``NMAC_RATIO`` of trust-RID's; goal reached >=
-``MIN_GOAL``. A run without an alert has no delay: its row counts such runs.
+The bar: no false alert (an alert on a bystander, an honest aircraft outside the fleet, is
+one; the verdict says in how many runs one was); containment >= ``MIN_CONTAINMENT`` and
+RMSE <= ``MAX_RMSE_M`` (the 16-aircraft values from 16 aircraft up, the 8-aircraft ones
+below); detection delay median <= ``MAX_DELAY_MEDIAN_S`` and 90th percentile <=
+``MAX_DELAY_P90_S``; aware benign-spoofer NMACs <= ``MAX_AWARE_NMAC`` per run and at most
+``NMAC_RATIO`` of trust-RID's; goal reached >= ``MIN_GOAL``. A run without an alert has no
+delay: its row counts such runs.
 """
 
 from __future__ import annotations
@@ -59,11 +61,20 @@ def _delays(records: Sequence[RunRecord]) -> tuple[list[float], int]:
     return known, len(delays) - len(known)
 
 
+def _on_bystanders(records: Sequence[RunRecord]) -> str:
+    """ " (a bystander alerted in k of n runs)" where the runs flew bystanders, else ""."""
+    flew = [r for r in records if r.metrics.get("bystander_count")]
+    if not flew:
+        return ""
+    alerted = sum(1 for r in flew if r.metrics.get("bystanders_alerted"))
+    return f" (a bystander alerted in {alerted} of {len(flew)} runs)"
+
+
 def _verdict(aware: Sequence[RunRecord], trust: Sequence[RunRecord], density: int) -> str:
     misses: list[str] = []
     false_alerts = mean_metric(aware, "false_alerts")
     if false_alerts:
-        misses.append(f"false alerts {false_alerts:.2f}/run")
+        misses.append(f"false alerts {false_alerts:.2f}/run{_on_bystanders(aware)}")
     containment = mean_metric(aware, "containment_rate")
     floor = _for_density(MIN_CONTAINMENT, density)
     if containment is not None and containment < floor:

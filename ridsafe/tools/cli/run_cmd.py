@@ -106,9 +106,13 @@ def run(args: argparse.Namespace) -> int:
     scenario_path = out / "scenario.yaml"
     scenario_path.write_text(yaml.safe_dump(to_mapping(loaded), sort_keys=False))
     n = len(loaded.scenario.aircraft)
-    n_spoofers, n_ghosts = len(loaded.scenario.all_spoofers), len(loaded.scenario.ghosts)
+    roles = [s.role for s in loaded.scenario.all_spoofers]
+    n_spoofers, n_bystanders = roles.count("spoofer"), roles.count("bystander")
+    n_ghosts = len(loaded.scenario.ghosts)
     spoofer = f"{n_spoofers or 'no'} spoofer{'' if n_spoofers == 1 else 's'}"
     spoofer += f" + {n_ghosts} ghost{'' if n_ghosts == 1 else 's'}" if n_ghosts else ""
+    if n_bystanders:
+        spoofer += f" + {n_bystanders} bystander{'' if n_bystanders == 1 else 's'}"
     print(
         f"{loaded.scenario.name}: {n} aircraft + {spoofer}, {loaded.scenario.duration_s:g} s, "
         f"seed {loaded.scenario.seed}, planner {planner}, {args.mode} -> {out}",

@@ -19,6 +19,11 @@ Power: ``tx_power_kind`` fixed (``tx_power_dbm``, default the radio's) or random
 
 Ghost g (serial ``00000777 + g``): a transmitter on the ground (``ghost_transmitter_z_m``) at a
 random place, claiming ``waypoint_count`` points crossing the area at ``ghost_speed_m_s``.
+
+Bystander b (serial ``00000888 + b``): a third party's aircraft that tells the truth (claim
+``truth``), crossing the whole area on a straight line at the spoofers' altitude and speed,
+from a random point of its edge to about the opposite one (its own stream
+``scenario/bystander/<b>``). The GCS knows nothing of it; an alert on it is a false alert.
 """
 
 from __future__ import annotations
@@ -45,6 +50,7 @@ from ridsafe.common.scenario import AircraftConfig, Vec3, cta2063_serial
 SERIAL_MAKER = "RSAF"
 FIRST_SPOOFER_NUMBER = 666
 FIRST_GHOST_NUMBER = 777
+FIRST_BYSTANDER_NUMBER = 888
 _MOTIONS = ("line", "waypoints", "orbit", "pursue")
 _CLAIMS = ("offset", "drift", "mimic", "fixed")
 
@@ -62,6 +68,7 @@ PRESETS: dict[str, dict[str, Any]] = {
     "silent": {"silent_intervals_s": ((40.0, 55.0),)},
     "two-spoofers": {"spoofer_count": 2},
     "two-ghosts": {"ghost_count": 2},
+    "bystander": {"bystander_count": 1},
     "pursue-drift": {"motions": ("pursue",), "claims": ("drift",)},
     "mixed": {
         "spoofer_count": 3,
@@ -75,7 +82,8 @@ PRESETS: dict[str, dict[str, Any]] = {
 
 @dataclass(frozen=True)
 class AdversaryDraw:
-    """How many spoofers and ghosts a family scenario has, and of which kinds. ``preset``
+    """How many spoofers, ghosts and bystanders a family scenario has, and of which kinds.
+    ``preset``
     (a name of ``PRESETS``) sets the kind keys of one named cell over the ones given."""
 
     preset: str = ""
@@ -87,6 +95,7 @@ class AdversaryDraw:
     tx_power_sigma_db: float = 6.0
     silent_intervals_s: tuple[tuple[float, float], ...] = ()
     ghost_count: int = 0
+    bystander_count: int = 0
     ghost_transmitter_z_m: float = 2.0
     ghost_speed_m_s: float = 7.0
     waypoint_count: int = 4
@@ -104,6 +113,7 @@ class AdversaryDraw:
             )
         check_at_least("spoofer_count", self.spoofer_count, 0)
         check_at_least("ghost_count", self.ghost_count, 0)
+        check_at_least("bystander_count", self.bystander_count, 0)
         check_at_least("waypoint_count", self.waypoint_count, 2)
         for name, kinds, known in (
             ("motions", self.motions, _MOTIONS),
@@ -127,7 +137,8 @@ class AdversaryDraw:
 
     @property
     def is_default(self) -> bool:
-        """One aimed-line offset spoofer at fixed power, no ghosts: the family as it was."""
+        """One aimed-line offset spoofer at fixed power, no ghosts and no bystanders: the
+        family as it was."""
         return not self.preset and self == AdversaryDraw(tx_power_dbm=self.tx_power_dbm)
 
 
@@ -238,6 +249,26 @@ def draw_ghost(
         tx_power=None
         if draw.tx_power_dbm is None
         else TxPowerConfig("fixed", dbm=draw.tx_power_dbm),
+    )
+
+
+def draw_bystander(
+    k: int, seed: int, half_width_m: float, alt_m: float, speed_m_s: float
+) -> SpooferConfig:
+    """Bystander ``k`` of the seed: an honest aircraft crossing the area edge to edge."""
+    g = rng.stream(seed, f"scenario/bystander/{k}")
+    entry = 2 * math.pi * float(g.random())
+    exit_ = entry + math.pi + float(g.uniform(-0.5, 0.5))
+    r = 1.05 * half_width_m
+    return SpooferConfig(
+        serial=cta2063_serial(SERIAL_MAKER, f"{FIRST_BYSTANDER_NUMBER + k:08d}"),
+        motion=MotionConfig(
+            "line",
+            speed_m_s,
+            start_enu_m=_vec((r * math.cos(entry), r * math.sin(entry), alt_m)),
+            goal_enu_m=_vec((r * math.cos(exit_), r * math.sin(exit_), alt_m)),
+        ),
+        claim=ClaimConfig("truth"),
     )
 
 

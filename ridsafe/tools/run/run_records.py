@@ -24,13 +24,13 @@ NMAC_THRESHOLD_M = 50.0
 def run_meta(loaded: ScenarioFile, mode: str, planner: str) -> dict[str, object]:
     """The ``/run/meta`` record (topics.py): everything metrics need to know of the run."""
     scenario = loaded.scenario
-    n = len(scenario.aircraft)
     spoofer = None
-    if scenario.all_spoofers:  # the first spoofer (every one: ``adversaries``)
-        first = scenario.all_spoofers[0]
+    liars = [k for k, s in enumerate(scenario.all_spoofers) if s.role == "spoofer"]
+    if liars:  # the first spoofer that lies (every one, bystanders too: ``adversaries``)
+        first = scenario.all_spoofers[liars[0]]
         claim = first.resolved_claim
         spoofer = {
-            "sysid": n + 1,
+            "sysid": scenario.first_spoofer_sysid + liars[0],
             "serial": first.serial,
             "offset_enu_m": None if claim.offset_enu_m is None else list(claim.offset_enu_m),
         }
@@ -58,8 +58,9 @@ def run_meta(loaded: ScenarioFile, mode: str, planner: str) -> dict[str, object]
 
 
 def adversaries(loaded: ScenarioFile) -> list[dict[str, object]]:
-    """Every spoofer and ghost: sysid, serial, role ("spoofer" / "ghost") and the kinds of its
-    motion, claim and power (the metrics' per-adversary keys read this)."""
+    """Every spoofer, bystander and ghost: sysid, serial, role ("spoofer" / "bystander" /
+    "ghost") and the kinds of its motion, claim and power (the metrics' per-adversary keys
+    read this)."""
     scenario = loaded.scenario
     out: list[dict[str, object]] = []
     for k, spoofer in enumerate(scenario.all_spoofers):
@@ -68,7 +69,7 @@ def adversaries(loaded: ScenarioFile) -> list[dict[str, object]]:
             {
                 "sysid": scenario.first_spoofer_sysid + k,
                 "serial": spoofer.serial,
-                "role": "spoofer",
+                "role": spoofer.role,
                 "motion": spoofer.resolved_motion.kind,
                 "claim": spoofer.resolved_claim.kind,
                 "tx_power": "fixed" if power is None else power.kind,

@@ -37,8 +37,8 @@ which one the spoofer flies depends on the traffic). The aim looks ``aim_horizon
 (not the run's duration), so ``--duration`` never changes which line is drawn.
 
 ``adversaries`` (``family_adversaries.AdversaryDraw``) draws more spoofers, other motion and
-claim kinds, random power and ghosts per seed; its default is the one aimed-line offset
-spoofer above, given as the scenario's ``spoofer`` shorthand.
+claim kinds, random power, ghosts and honest bystanders per seed; its default is the one
+aimed-line offset spoofer above, given as the scenario's ``spoofer`` shorthand.
 """
 
 from __future__ import annotations
@@ -59,7 +59,12 @@ from ridsafe.common.scenario import (
     Vec3,
     cta2063_serial,
 )
-from ridsafe.tools.run.family_adversaries import AdversaryDraw, draw_ghost, draw_spoofer
+from ridsafe.tools.run.family_adversaries import (
+    AdversaryDraw,
+    draw_bystander,
+    draw_ghost,
+    draw_spoofer,
+)
 from ridsafe.tools.run.family_launches import (
     DepotPads,
     Launch,
@@ -244,11 +249,15 @@ def generate(base: Scenario, n_aircraft: int, seed: int, family: FamilyConfig) -
         draw_ghost(k, seed, family.half_width_m, family.spoofer_alt_m, wanted)
         for k in range(wanted.ghost_count)
     )
+    bystanders = tuple(
+        draw_bystander(k, seed, family.half_width_m, family.spoofer_alt_m, family.spoofer_speed_m_s)
+        for k in range(wanted.bystander_count)
+    )
     return dataclasses.replace(
         base,
         aircraft=aircraft,
         spoofer=None,
-        spoofers=spoofers,
+        spoofers=spoofers + bystanders,
         ghosts=ghosts,
         seed=seed,
         name=name,

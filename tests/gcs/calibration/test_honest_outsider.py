@@ -1,10 +1,11 @@
-"""An aircraft that broadcasts the truth but flies no companion of ours (a third party's drone)
-must not be flagged. The fleet's own aircraft are protected by the cooperative veto; an
-outsider is not, and the sweeps had none: the family's spoofer with its lie set to zero is
-one (docs/results/robustness.md, "An honest aircraft outside the fleet is flagged on the
-urban preset": 9 of 10 urban runs at 8 aircraft flag it, most when the fit starts and the
-held claims are decided against an empirical null of aircraft still on their pads; later
-its honest statistics still run above the fleet's, for a reason not found yet)."""
+"""An aircraft that broadcasts the truth but flies no companion of ours (a third party's drone,
+the family's ``bystander``) must not be flagged. The fleet's own aircraft are protected by the
+cooperative veto; a bystander is not (docs/results/robustness.md, "Bystanders: honest
+aircraft outside the fleet": on the urban preset most runs flag it, most when the fit starts
+and the held claims are decided against an empirical null of aircraft still on their pads).
+
+The metrics count every alert on a bystander as a false alert; the oracle here is the alert
+records themselves."""
 
 from __future__ import annotations
 
@@ -13,35 +14,69 @@ from pathlib import Path
 import pytest
 
 from ridsafe.common.config import with_overrides
+from ridsafe.tools.analysis.metrics import compute_metrics
+from ridsafe.tools.analysis.run_arrays import load_run
 from ridsafe.tools.run.lockstep import run_lockstep
 from ridsafe.tools.run.scenario import REPO_ROOT, load_scenario_file, with_aircraft
 from ridsafe.tools.runlog.reader import read_records
 
+BYSTANDER = "RSAF800000888"
 
-def _alerts_on_an_honest_outsider(tmp_path: Path, config: str, seed: int) -> list[float]:
-    """Times of the alerts raised in 12 s of ``config`` at 8 aircraft, aware, whose spoofer
-    tells the truth."""
+
+def _fly_with_a_bystander(tmp_path: Path, config: str, seed: int, duration_s: float) -> Path:
+    """``config`` at 8 aircraft, aware, with the family's spoofer and one bystander."""
     overrides = {
         "scenario.seed": seed,
-        "scenario.duration_s": 12.0,
-        "family.spoofer_offset_enu_m": [0.0, 0.0, 0.0],
+        "scenario.duration_s": duration_s,
+        "family.adversaries.preset": "bystander",
     }
     loaded = load_scenario_file(REPO_ROOT / "configs" / config)
     loaded = with_aircraft(with_overrides(loaded, overrides), 8, overrides)
     log = tmp_path / "run.mcap"
     assert run_lockstep(loaded, "aware", log, recorder_process=False).status == "completed"
-    return [t for _, t, r in read_records(log, {"/gcs/alerts"}) if r["state"] == "raised"]
+    return log
 
 
-def test_an_honest_outsider_is_not_alerted_on_a_channel_the_gcs_fits(tmp_path: Path) -> None:
-    assert _alerts_on_an_honest_outsider(tmp_path, "robustness.yaml", 1) == []
+def _raised(log: Path) -> list[tuple[float, str]]:
+    return [
+        (t, str(r["uas_id"]))
+        for _, t, r in read_records(log, {"/gcs/alerts"})
+        if r["state"] == "raised"
+    ]
+
+
+def test_a_bystander_is_not_alerted_on_a_channel_the_gcs_fits(tmp_path: Path) -> None:
+    log = _fly_with_a_bystander(tmp_path, "robustness.yaml", 1, 40.0)
+    raised = _raised(log)
+    assert [serial for _, serial in raised if serial != "RSAF800000666"] == []
+    assert any(serial == "RSAF800000666" for _, serial in raised)  # the spoofer still is
+    metrics = compute_metrics(load_run(log))
+    assert (metrics["false_alerts"], metrics["bystanders_alerted"]) == (0, 0)
+
+
+def test_alerts_on_a_bystander_count_as_false_alerts(tmp_path: Path) -> None:
+    """Urban, seed 1: the bystander is alerted (the known failure below), so the count has
+    something to count; the oracle is the alert records."""
+    log = _fly_with_a_bystander(tmp_path, "urban.yaml", 1, 30.0)
+    run = load_run(log)
+    raised = _raised(log)
+    fleet = {a["serial"] for a in run.meta["aircraft"]}
+    on_bystander = sum(1 for _, serial in raised if serial == BYSTANDER)
+    on_fleet = sum(1 for _, serial in raised if serial in fleet)
+    assert on_bystander >= 1
+    metrics = compute_metrics(run)
+    assert metrics["false_alerts"] == on_fleet + on_bystander
+    assert (metrics["bystander_count"], metrics["bystanders_alerted"]) == (1, 1)
+    assert metrics["spoofer_count"] == 1  # the bystander is no spoofer
+    assert metrics["alert_time_s"] == min(t for t, s in raised if s == "RSAF800000666")
 
 
 @pytest.mark.xfail(
     strict=True,
     raises=AssertionError,
     reason="known: an honest aircraft outside the fleet is flagged on the urban preset "
-    "(robustness.md, 'An honest aircraft outside the fleet')",
+    "(robustness.md, 'Bystanders: honest aircraft outside the fleet')",
 )
-def test_an_honest_outsider_is_not_alerted_on_the_urban_preset(tmp_path: Path) -> None:
-    assert _alerts_on_an_honest_outsider(tmp_path, "urban.yaml", 1) == []
+def test_a_bystander_is_not_alerted_on_the_urban_preset(tmp_path: Path) -> None:
+    raised = _raised(_fly_with_a_bystander(tmp_path, "urban.yaml", 1, 12.0))
+    assert [serial for _, serial in raised if serial == BYSTANDER] == []

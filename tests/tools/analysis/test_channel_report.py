@@ -86,6 +86,17 @@ def test_nmacs_against_the_bar_and_trust_rid() -> None:
     assert "NMAC 0.50 > 0.15" in row and "NMAC 0.50 > 0.2 x trust-RID 2.00" in row
 
 
+def test_alerts_on_a_bystander_are_false_alerts_and_the_verdict_says_in_how_many_runs() -> None:
+    records = [
+        _record(1.0, 16, "aware", 0, bystander_count=1, bystanders_alerted=1, false_alerts=2),
+        _record(1.0, 16, "aware", 1, bystander_count=1, bystanders_alerted=0),
+        _record(1.0, 16, "aware", 2, bystander_count=1, bystanders_alerted=0, false_alerts=1),
+    ]
+    (row,) = [line for line in channel_section([_sweep(*records)]) if line.startswith("| rob")]
+    assert "| 1.00 |" in row  # false alerts per run: (2 + 0 + 1) / 3
+    assert "false alerts 1.00/run (a bystander alerted in 1 of 3 runs)" in row
+
+
 def test_which_sweeps_are_channel_sweeps() -> None:
     plain = RunRecord(Path("r"), RunSpec(16, 0, "aware", 120.0), dict(GOOD))
     alpha = RunSpec(16, 0, "aware", 120.0, (("alpha", 0.1),), (("pipeline.region.alpha", 0.1),))

@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 
+import numpy as np
 import pytest
 
 from ridsafe.common.errors import ConfigError
@@ -97,6 +99,31 @@ def test_the_default_draw_is_the_one_aimed_spoofer_as_before() -> None:
     s = generate(BASE, 16, 0, FamilyConfig())
     assert s.spoofer is not None and not s.spoofers and not s.ghosts
     assert s.spoofer.motion is None and s.spoofer.start_enu_m is not None
+
+
+def test_a_bystander_crosses_the_area_telling_the_truth_beside_the_same_spoofer() -> None:
+    family = FamilyConfig(adversaries=AdversaryDraw(preset="bystander"))
+    r = 1.05 * family.half_width_m
+    for seed in range(5):
+        plain = generate(BASE, 8, seed, FamilyConfig())
+        s = generate(BASE, 8, seed, family)
+        assert plain.spoofer is not None and len(s.spoofers) == 2 and not s.ghosts
+        spoofer, bystander = s.spoofers
+        assert spoofer.role == "spoofer" and bystander.role == "bystander"
+        assert spoofer.resolved_motion == plain.spoofer.resolved_motion
+        assert spoofer.resolved_claim == plain.spoofer.resolved_claim
+        assert bystander.serial == "RSAF800000888" and bystander.resolved_claim.kind == "truth"
+        motion = bystander.resolved_motion
+        assert motion.kind == "line" and motion.speed_m_s == family.spoofer_speed_m_s
+        assert motion.start_enu_m is not None and motion.goal_enu_m is not None
+        a, b = np.array(motion.start_enu_m), np.array(motion.goal_enu_m)
+        assert np.hypot(*a[:2]) == pytest.approx(r, abs=0.01)
+        assert np.hypot(*b[:2]) == pytest.approx(r, abs=0.01)
+        assert a[2] == b[2] == family.spoofer_alt_m
+        # edge to about the opposite edge: the chord passes within r sin(0.25) of the centre
+        (cx, cy), (ax, ay) = b[:2] - a[:2], a[:2]
+        assert abs(cx * ay - cy * ax) / math.hypot(cx, cy) <= r * math.sin(0.25) + 0.01
+        assert generate(BASE, 8, seed, family) == s
 
 
 def test_a_wrong_family_adversary_key_names_its_path() -> None:

@@ -3,10 +3,12 @@ runner writes in ``/run/meta`` is what ``analysis.run_arrays`` takes the run to 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
 from ridsafe.common import topics
+from ridsafe.common.adversary import ClaimConfig, MotionConfig, SpooferConfig
 from ridsafe.common.config import from_mapping
 from ridsafe.tools.analysis.run_arrays import load_run
 from ridsafe.tools.run import run_records
@@ -35,6 +37,26 @@ def test_meta_describes_the_benign_aircraft_and_the_spoofer() -> None:
     assert meta["nmac_threshold_m"] == run_records.NMAC_THRESHOLD_M
     # The whole scenario file, as plain data that loads back to the same file.
     assert from_mapping(ScenarioFile, meta["scenario"], "meta") == loaded
+
+
+def test_meta_names_the_first_spoofer_that_lies_and_lists_a_bystander_by_its_role() -> None:
+    loaded = _loaded()
+    liar = loaded.scenario.spoofer
+    assert liar is not None
+    bystander = SpooferConfig(
+        "RSAF800000888",
+        motion=MotionConfig("line", 7.0, (-500.0, 0.0, 60.0), (500.0, 0.0, 60.0)),
+        claim=ClaimConfig("truth"),
+    )
+    scenario = dataclasses.replace(loaded.scenario, spoofer=None, spoofers=(bystander, liar))
+    meta = run_records.run_meta(dataclasses.replace(loaded, scenario=scenario), "lockstep", "aware")
+    assert meta["spoofer"] == {"sysid": 7, "serial": liar.serial, "offset_enu_m": [50.0, 50.0, 0.0]}
+    listed = meta["adversaries"]
+    assert isinstance(listed, list)
+    assert [(a["sysid"], a["serial"], a["role"], a["claim"]) for a in listed] == [
+        (6, "RSAF800000888", "bystander", "truth"),
+        (7, liar.serial, "spoofer", "offset"),
+    ]
 
 
 def test_end_records_an_unknown_sim_time_as_null() -> None:
