@@ -87,6 +87,9 @@ class CalibrationConfig:
     #: 0 dB until steep links are heard. Empty: no elevation gain.
     elevation_knots_deg: tuple[float, ...] = (0.0, 10.0, 20.0, 30.0, 45.0, 60.0, 90.0)
     elevation_gain_prior_std_db: float = 10.0
+    #: A knot's gain is used only when it is at least this many of its standard errors
+    #: from 0 dB; the others are held at 0 (``channel_fit.py``). 0: every knot as fitted.
+    elevation_gain_min_z: float = 3.0
     #: Priors: path-loss exponent N(prior, std^2), each receiver's bias N(0, std^2) (dB).
     exponent_prior: float = 2.0
     exponent_prior_std: float = 1.0
@@ -134,6 +137,7 @@ class CalibrationConfig:
         ):
             check_positive(name, getattr(self, name))
         check_non_negative("samples_per_parameter", self.samples_per_parameter)
+        check_non_negative("elevation_gain_min_z", self.elevation_gain_min_z)
         check_non_negative("min_time_s", self.min_time_s)
         check_non_negative("hold_s", self.hold_s)
         check_non_negative("refit_s", self.refit_s)

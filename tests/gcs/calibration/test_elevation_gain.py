@@ -56,6 +56,31 @@ def test_the_fit_recovers_the_patterns_loss_by_elevation() -> None:
     assert plain.elevation_gain_of(elevation).tolist() == [0.0] * elevation.shape[0]
 
 
+def test_a_knot_the_receptions_cannot_tell_from_zero_is_held_at_zero() -> None:
+    """Isotropic antennas, the fleet on its pads but for a few early steep links (the first
+    fit of a run): their noise would be a gain applied to every later link at those
+    elevations. Oracle: the true gain, 0 dB everywhere."""
+    rng = np.random.default_rng(3)
+    n, k = 8, 600
+    tx = rng.integers(1, n + 1, k)
+    rx = (tx + rng.integers(1, n, k) - 1) % n + 1
+    d = rng.uniform(40.0, 800.0, k)
+    elevation = np.where(np.arange(k) < 12, rng.uniform(15.0, 70.0, k), 0.0)
+    rssi = -20.0 - 20.0 * np.log10(d) + rng.normal(0.0, 1.0, k)
+    held = fit_channel(tx, rx, d, rssi, CFG, elevation)
+    assert held.elevation_gain_db == (0.0,) * len(KNOTS)
+    as_fitted = fit_channel(
+        tx, rx, d, rssi, dataclasses.replace(CFG, elevation_gain_min_z=0.0), elevation
+    )
+    assert max(abs(g) for g in as_fitted.elevation_gain_db) > 0.3  # what it held back
+    # A pattern the receptions do resolve is kept (the dipoles above, at every seed tried).
+    tx, rx, d, rssi, elevation, pattern = _dipoles(4)
+    kept = fit_channel(tx, rx, d, rssi, CFG, elevation)
+    seen = elevation <= 45.0
+    error = kept.elevation_gain_of(elevation[seen]) - pattern[seen]
+    assert np.sqrt(np.mean(error**2)) < 0.3
+
+
 def test_the_detectors_get_the_gain_at_the_claimed_elevation_the_tracks_do_not() -> None:
     tx, rx, d, rssi, elevation, _ = _dipoles(2)
     tested = fit_channel(tx, rx, d, rssi, CFG, elevation)
