@@ -177,11 +177,11 @@ def _irls(
         # Priors are in units of the noise: scale them by 1 / s^2 relative to the data.
         normal = aw.T @ design / scale2 + np.diag(prior_precision)
         rhs = aw.T @ rssi_dbm / scale2 + prior_precision * prior_mean
-        theta = np.linalg.solve(normal, rhs)
+        theta = np.asarray(np.linalg.solve(normal, rhs), dtype=np.float64)
         residual = rssi_dbm - design @ theta
         scale2 = max(float(np.sum(weights * residual**2) / k), 1e-6)
         weights = (cfg.student_dof + 1.0) / (cfg.student_dof + residual**2 / scale2)
-    covariance: FloatArray = np.linalg.inv(normal)
+    covariance = np.asarray(np.linalg.inv(normal), dtype=np.float64)
     return theta, covariance, scale2
 
 
