@@ -62,7 +62,8 @@ def _delays(records: Sequence[RunRecord]) -> tuple[list[float], int]:
 
 
 def _on_bystanders(records: Sequence[RunRecord]) -> str:
-    """ " (a bystander alerted in k of n runs)" where the runs flew bystanders, else ""."""
+    """The verdict's word on bystanders where the runs flew them (in how many runs one was
+    alerted); empty where they did not."""
     flew = [r for r in records if r.metrics.get("bystander_count")]
     if not flew:
         return ""
