@@ -83,8 +83,8 @@ PRESETS: dict[str, dict[str, Any]] = {
 @dataclass(frozen=True)
 class AdversaryDraw:
     """How many spoofers, ghosts and bystanders a family scenario has, and of which kinds.
-    ``preset``
-    (a name of ``PRESETS``) sets the kind keys of one named cell over the ones given."""
+    ``preset`` (a name of ``PRESETS``) sets the kind keys of one named cell over the ones
+    given."""
 
     preset: str = ""
     spoofer_count: int = 1

@@ -25,12 +25,13 @@ def run_meta(loaded: ScenarioFile, mode: str, planner: str) -> dict[str, object]
     """The ``/run/meta`` record (topics.py): everything metrics need to know of the run."""
     scenario = loaded.scenario
     spoofer = None
-    liars = [k for k, s in enumerate(scenario.all_spoofers) if s.role == "spoofer"]
-    if liars:  # the first spoofer that lies (every one, bystanders too: ``adversaries``)
-        first = scenario.all_spoofers[liars[0]]
+    # the first spoofer that lies (every one, bystanders too: ``adversaries``)
+    k = next((k for k, s in enumerate(scenario.all_spoofers) if s.role == "spoofer"), None)
+    if k is not None:
+        first = scenario.all_spoofers[k]
         claim = first.resolved_claim
         spoofer = {
-            "sysid": scenario.first_spoofer_sysid + liars[0],
+            "sysid": scenario.first_spoofer_sysid + k,
             "serial": first.serial,
             "offset_enu_m": None if claim.offset_enu_m is None else list(claim.offset_enu_m),
         }
