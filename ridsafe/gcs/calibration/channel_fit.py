@@ -26,6 +26,13 @@ every later link at that elevation, was an error the detectors' window tests saw
 (the cooperative aircraft's MLAT statistic past its 1e-6 threshold in 2.5 % of claims on the
 1 dB channel the GCS could have been told, 0.07 % without the elevation fit).
 
+Given the receivers' sensitivity ``floor_dbm`` (nothing weaker is reported), the fit is
+redone ``CENSORING_PASSES`` times on rssi_k - sigma lambda_k, the lift a link of the previous
+pass's mean has above its mean (``censoring.py``; none where it is negligible, and no pass
+where it is everywhere); its fixed point solves the truncated normal's likelihood equation,
+where the plain fit takes the far links near the cut for stronger than they are (exponent 3
+fitted as 2.97).
+
 ``check_configured_channel`` asks the other question first: do the labelled receptions fit
 the channel the GCS was configured with (free space, Gaussian noise of ``rssi_sigma_db`` plus
 the detectors' position term, a level per transmitter that the trackers estimate anyway)?
@@ -38,6 +45,7 @@ configured one is then merely conservative.
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,6 +53,7 @@ from numpy.typing import NDArray
 from scipy.stats import chi2
 
 from ridsafe.common.pathloss import DB_PER_LN
+from ridsafe.gcs.calibration.censoring import significant_lift_db
 from ridsafe.gcs.calibration.config import CalibrationConfig
 
 FloatArray = NDArray[np.float64]
@@ -54,6 +63,8 @@ __all__ = ["ChannelEstimate", "ConfiguredChannelCheck", "check_configured_channe
 
 #: IRLS passes.
 IRLS_PASSES = 8
+#: Fits on the RSSI less the lift the previous one expects, with a sensitivity floor.
+CENSORING_PASSES = 4
 #: The prior precision (1/dB^2) that holds a knot the receptions cannot resolve at 0 dB.
 _PINNED_PRECISION = 1e12
 
@@ -107,10 +118,13 @@ def fit_channel(
     rssi_dbm: FloatArray,
     cfg: CalibrationConfig,
     elevation_deg: FloatArray | None = None,
+    floor_dbm: float = -math.inf,
 ) -> ChannelEstimate:
     """Fit ``(K,)`` labelled receptions (see the module docstring); with
     ``cfg.elevation_knots_deg`` and the links' ``elevation_deg``, a gain by elevation too
-    (piecewise linear between the knots, 0 at level)."""
+    (piecewise linear between the knots, 0 at level); with a finite ``floor_dbm`` (the
+    receivers' sensitivity: nothing weaker was reported), on the RSSI less each link's
+    expected lift above its mean (``censoring.py``)."""
     tx_ids, tx_col = np.unique(tx_sysid, return_inverse=True)
     rx_ids, rx_col = np.unique(rx_sysid, return_inverse=True)
     k, n_tx, n_rx = rssi_dbm.shape[0], tx_ids.shape[0], rx_ids.shape[0]
@@ -133,7 +147,8 @@ def fit_channel(
     prior_mean[i_exp] = cfg.exponent_prior
     prior_precision[i_exp + 1 :] = 1.0 / cfg.elevation_gain_prior_std_db**2
     prior_precision[:n_tx] = 1e-8  # flat, but keeps the system regular
-    theta, covariance, scale2 = _irls(design, rssi_dbm, prior_mean, prior_precision, cfg)
+    fit = functools.partial(_censored_irls, design, rssi_dbm, prior_mean, cfg, floor_dbm)
+    theta, covariance, scale2, target_dbm = fit(prior_precision)
     if n_elev:
         # A knot the receptions cannot tell from 0 dB is held there: its estimate would be
         # noise that repeats on every link at that elevation for the rest of the run.
@@ -142,9 +157,9 @@ def fit_channel(
         held = np.abs(theta[gain]) < cfg.elevation_gain_min_z * standard_error
         if held.any():
             prior_precision[gain] = np.where(held, _PINNED_PRECISION, prior_precision[gain])
-            theta, covariance, scale2 = _irls(design, rssi_dbm, prior_mean, prior_precision, cfg)
+            theta, covariance, scale2, target_dbm = fit(prior_precision)
             theta[gain] = np.where(held, 0.0, theta[gain])  # exactly: within 1e-12 already
-    residual = rssi_dbm - design @ theta
+    residual = target_dbm - design @ theta
     return ChannelEstimate(
         exponent=float(theta[i_exp]),
         exponent_std=float(np.sqrt(covariance[i_exp, i_exp])),
@@ -156,6 +171,33 @@ def fit_channel(
         elevation_knots_deg=tuple(knots),
         elevation_gain_db=(0.0, *(float(g) for g in theta[i_exp + 1 :])) if n_elev else (),
     )
+
+
+def _censored_irls(
+    design: FloatArray,
+    rssi_dbm: FloatArray,
+    prior_mean: FloatArray,
+    cfg: CalibrationConfig,
+    floor_dbm: float,
+    prior_precision: FloatArray,
+) -> tuple[FloatArray, FloatArray, float, FloatArray]:
+    """``_irls`` and the RSSI it was fitted to: with a finite ``floor_dbm``, refitted on the
+    RSSI less the lift expected at the previous pass's means, ``CENSORING_PASSES`` times
+    (``censoring.py``)."""
+    theta, covariance, scale2 = _irls(design, rssi_dbm, prior_mean, prior_precision, cfg)
+    target_dbm = rssi_dbm
+    if not math.isfinite(floor_dbm):
+        return theta, covariance, scale2, target_dbm
+    dof = max(design.shape[0] - design.shape[1], 1)
+    for _ in range(CENSORING_PASSES):
+        mean_dbm = design @ theta
+        sigma_db = float(np.sqrt(np.sum((target_dbm - mean_dbm) ** 2) / dof))
+        lift_db = significant_lift_db(mean_dbm, floor_dbm, sigma_db)
+        if not lift_db.any():
+            break  # the cut binds on no link: the plain fit
+        target_dbm = rssi_dbm - lift_db
+        theta, covariance, scale2 = _irls(design, target_dbm, prior_mean, prior_precision, cfg)
+    return theta, covariance, scale2, target_dbm
 
 
 def _irls(

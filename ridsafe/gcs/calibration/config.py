@@ -90,6 +90,10 @@ class CalibrationConfig:
     #: A knot's gain is used only when it is at least this many of its standard errors
     #: from 0 dB; the others are held at 0 (``channel_fit.py``). 0: every knot as fitted.
     elevation_gain_min_z: float = 3.0
+    #: Receptions near the receivers' sensitivity: nothing weaker is reported, so what is
+    #: runs above the link's mean. The fit and the detectors expect that lift, with the
+    #: sensitivity taken as the weakest RSSI reported (``censoring.py``); the tracks do not.
+    sensitivity_lift: bool = True
     #: Priors: path-loss exponent N(prior, std^2), each receiver's bias N(0, std^2) (dB).
     exponent_prior: float = 2.0
     exponent_prior_std: float = 1.0

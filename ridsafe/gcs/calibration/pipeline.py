@@ -46,18 +46,26 @@ position predicts. The tracks cannot do the same (a liar's claimed elevation is 
 elevation) and keep the plain fit's mapping (``ObservedClaim.track_rssi_dbm``) and sigma;
 their honest inflation must be measured on that RSSI, so the detectors run once more on it
 (``_TrackNoise``), their results used for nothing else.
+
+**Receivers report nothing below their sensitivity** (``calibration.sensitivity_lift``): on
+links near it only the receptions the noise lifted are reported. The fit is made on the RSSI
+less each link's expected lift, and the detectors test each claim on its RSSI less the lift
+its links would have were the claim true, with the sensitivity taken as the weakest RSSI
+reported (``censoring.py``). The tracks keep the RSSI as received.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 from collections import deque
 from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ridsafe.gcs.calibration.censoring import SensitivityFloor, lift_at_claims
 from ridsafe.gcs.calibration.channel_fit import (
     ChannelEstimate,
     ConfiguredChannelCheck,
@@ -100,23 +108,35 @@ def to_free_space_all(
     claims: Sequence[ObservedClaim],
     estimate: ChannelEstimate,
     pivot_dbm: float = 0.0,
-    elevation: ChannelEstimate | None = None,
+    tested: ChannelEstimate | None = None,
+    floor_dbm: float = -math.inf,
 ) -> list[ObservedClaim]:
     """``to_free_space`` of each claim, the cycle's receptions mapped in one pass. With
-    ``elevation`` (a fit with the links' gain by elevation) the detectors get the RSSI mapped
-    by it, the gain taken at the claimed position (a test of the claim), and the tracks
-    (``track_rssi_dbm``) the RSSI mapped by ``estimate`` (they cannot know a liar's
-    elevation)."""
+    ``tested`` (the detectors' fit: with the links' gain by elevation, or on the RSSI less
+    the sensitivity's lift) the detectors get the RSSI mapped by it, the gain taken at the
+    claimed position (a test of the claim), and the tracks (``track_rssi_dbm``) the RSSI
+    mapped by ``estimate`` (they cannot know a liar's elevation). With a finite
+    ``floor_dbm`` (the receivers' sensitivity, as estimated) the detectors' RSSI is less each
+    link's expected lift above its mean at the claimed position (``censoring.py``); the
+    tracks' is not."""
     if not claims:
         return []
     bounds = reception_bounds(claims).tolist()
-    mapped = _mapped(claims, estimate, pivot_dbm, with_elevation=False)
-    if elevation is None:
+    mapped = _mapped(claims, estimate, pivot_dbm)
+    if tested is None and not math.isfinite(floor_dbm):
         return [
             dataclasses.replace(claim, rssi_dbm=mapped[bounds[j] : bounds[j + 1]])
             for j, claim in enumerate(claims)
         ]
-    for_test = _mapped(claims, elevation, pivot_dbm, with_elevation=True)
+    tested = estimate if tested is None else tested
+    distance_m, elevation_deg = claim_links(claims)
+    gain_db = tested.elevation_gain_of(elevation_deg)
+    lift_db = None
+    if math.isfinite(floor_dbm):
+        loss_db = 10.0 * tested.exponent * np.log10(np.maximum(distance_m, 1.0)) - gain_db
+        bias_db = tested.bias_of(np.concatenate([claim.rx_sysid for claim in claims]))
+        lift_db = lift_at_claims(claims, loss_db, bias_db, floor_dbm, tested.sigma_db)
+    for_test = _mapped(claims, tested, pivot_dbm, gain_db, lift_db)
     return [
         dataclasses.replace(
             claim,
@@ -131,14 +151,18 @@ def _mapped(
     claims: Sequence[ObservedClaim],
     estimate: ChannelEstimate,
     pivot_dbm: float,
-    with_elevation: bool,
+    gain_db: FloatArray | None = None,
+    lift_db: FloatArray | None = None,
 ) -> FloatArray:
+    """The claims' RSSI, less the receivers' biases (and the links' ``gain_db`` and
+    expected ``lift_db`` where given), scaled about ``pivot_dbm`` (module docstring)."""
     rssi_dbm = np.concatenate([claim.rssi_dbm for claim in claims])
     rx_sysid = np.concatenate([claim.rx_sysid for claim in claims])
     corrected = rssi_dbm - estimate.bias_of(rx_sysid)
-    if with_elevation and estimate.elevation_knots_deg:
-        _, elevation_deg = claim_links(claims)
-        corrected = corrected - estimate.elevation_gain_of(elevation_deg)
+    if gain_db is not None:
+        corrected = corrected - gain_db
+    if lift_db is not None:
+        corrected = corrected - lift_db
     return readonly(pivot_dbm + (2.0 / estimate.exponent) * (corrected - pivot_dbm))
 
 
@@ -154,9 +178,10 @@ class CalibratingPipeline:
         self.labeller = CooperativeLabeller(config.calibration)
         self.review = CalibratedReview(config.calibration, self.labeller)
         self.estimate: ChannelEstimate | None = None
-        #: The fit with the links' gain by elevation, the detectors' claims are mapped with
-        #: (module docstring; None without ``calibration.elevation_knots_deg``).
-        self.elevation_estimate: ChannelEstimate | None = None
+        #: The fit the detectors' claims are mapped with, with the links' gain by elevation
+        #: and on the RSSI less the sensitivity's lift (module docstring); None: the plain
+        #: fit ``estimate``, which the tracks' claims are mapped with, is the same.
+        self.tested_estimate: ChannelEstimate | None = None
         self.inner: EstimationPipeline | None = None
         self._held: deque[ObservedClaim] = deque()
         self._newest_held_s = 0.0
@@ -165,7 +190,8 @@ class CalibratingPipeline:
         self._configured_rejected = False
         self._rejection: ConfiguredChannelCheck | None = None  # the check that rejected it
         self._decision: ChannelDecision | None = None  # for this cycle's output
-        self._track_noise: _TrackNoise | None = None  # with an elevation fit
+        self._track_noise: _TrackNoise | None = None  # with a detectors' fit of its own
+        self._floor = SensitivityFloor()  # the weakest RSSI reported (censoring.py)
 
     @property
     def on_configured_channel(self) -> bool:
@@ -174,6 +200,7 @@ class CalibratingPipeline:
 
     def step(self, now_s: float, claims: Sequence[ObservedClaim]) -> CycleOutput:
         self.labeller.observe_all(claims)
+        self._floor.observe(claims)
         if self.inner is None:
             self._hold(claims)
             if not self._start(now_s):
@@ -196,7 +223,7 @@ class CalibratingPipeline:
         claims = [airborne_receptions(c, h) for c in claims]
         if self.estimate is not None:
             claims = to_free_space_all(
-                claims, self.estimate, self._pivot_dbm, self.elevation_estimate
+                claims, self.estimate, self._pivot_dbm, self.tested_estimate, self._floor_dbm()
             )
             if self._track_noise is not None:
                 self._track_noise.observe(claims)
@@ -320,11 +347,16 @@ class CalibratingPipeline:
         cal = self.config.calibration
         plain = dataclasses.replace(cal, elevation_knots_deg=())
         estimate = fit_channel(s.tx_sysid, s.rx_sysid, s.distance_m, s.rssi_dbm, plain)
-        self.elevation_estimate = None
-        if cal.elevation_knots_deg:
-            self.elevation_estimate = fit_channel(
-                s.tx_sysid, s.rx_sysid, s.distance_m, s.rssi_dbm, cal, s.elevation_deg
-            )
+        tested = fit_channel(
+            s.tx_sysid,
+            s.rx_sysid,
+            s.distance_m,
+            s.rssi_dbm,
+            cal,
+            s.elevation_deg,
+            self._floor_dbm(),
+        )
+        self.tested_estimate = None if tested == estimate else tested
         logger.info(
             "channel calibrated on %d receptions: exponent %.2f +/- %.2f, sigma %.2f dB "
             "(robust scale %.2f dB), receiver biases std %.2f dB",
@@ -342,16 +374,20 @@ class CalibratingPipeline:
         )
         return estimate
 
+    def _floor_dbm(self) -> float:
+        """The receivers' sensitivity as estimated, when the lift above it is corrected."""
+        return self._floor.dbm if self.config.calibration.sensitivity_lift else -math.inf
+
     def _calibrated_config(self, estimate: ChannelEstimate) -> PipelineConfig:
-        """The inner pipeline's config on the fit: its sigma in the mapped RSSI; with an
-        elevation fit the detectors' (that fit's) and the tracks' (the plain fit's) as the
-        inflation of it (module docstring)."""
+        """The inner pipeline's config on the fit: its sigma in the mapped RSSI; with a
+        detectors' fit of its own the detectors' (that fit's) and the tracks' (the plain
+        fit's) as the inflation of it (module docstring)."""
         floor = self.config.calibration.sigma_floor_db
         sigma = (2.0 / estimate.exponent) * max(estimate.sigma_db, floor)
-        elevation = self.elevation_estimate
-        if elevation is None:
+        fit = self.tested_estimate
+        if fit is None:
             return dataclasses.replace(self.config, rssi_sigma_db=sigma)
-        tested = min((2.0 / elevation.exponent) * max(elevation.sigma_db, floor), sigma)
+        tested = min((2.0 / fit.exponent) * max(fit.sigma_db, floor), sigma)
         variance_ratio = (sigma / tested) ** 2
         if self.config.calibration.honest_covariance:
             tracks = dataclasses.replace(self.config, rssi_sigma_db=sigma)
@@ -362,10 +398,11 @@ class CalibratingPipeline:
 
 
 class _TrackNoise:
-    """The localisers' inflation when the detectors test other RSSI than the tracks get (an
-    elevation fit; module docstring): the detectors once more, on the tracks' RSSI with the
-    tracks' sigma (``config``), so that the vouched claims' MLAT statistics (``review.py``)
-    measure the noise of the RSSI the localisers use. Their results decide nothing."""
+    """The localisers' inflation when the detectors test other RSSI than the tracks get (a
+    detectors' fit of its own; module docstring): the detectors once more, on the tracks'
+    RSSI with the tracks' sigma (``config``), so that the vouched claims' MLAT statistics
+    (``review.py``) measure the noise of the RSSI the localisers use. Their results decide
+    nothing."""
 
     def __init__(
         self, config: PipelineConfig, labeller: CooperativeLabeller, variance_ratio: float

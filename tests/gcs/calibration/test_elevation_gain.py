@@ -149,7 +149,7 @@ def test_the_detectors_sigma_follows_the_pattern_the_tracks_noise_does_not() -> 
     with_fit = _run(traffic, cal, -0.4)
     without = _run(traffic, dataclasses.replace(cal, elevation_knots_deg=()), -0.4)
     assert with_fit.inner is not None and without.inner is not None
-    assert with_fit.elevation_estimate is not None and without.elevation_estimate is None
+    assert with_fit.tested_estimate is not None and without.tested_estimate is None
     # The detectors: the pattern is no longer noise.
     assert with_fit.inner.config.rssi_sigma_db < 0.8 * without.inner.config.rssi_sigma_db
     # The tracks: the same noise as without the fit (within the runs' differences).
