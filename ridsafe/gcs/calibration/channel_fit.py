@@ -61,8 +61,9 @@ IntArray = NDArray[np.int64]
 
 __all__ = ["ChannelEstimate", "ConfiguredChannelCheck", "check_configured_channel", "fit_channel"]
 
-#: IRLS passes.
+#: IRLS passes; from the weights of a fit to nearly the same RSSI (the censoring passes).
 IRLS_PASSES = 8
+WARM_IRLS_PASSES = 3
 #: Fits on the RSSI less the lift the previous one expects, with a sensitivity floor.
 CENSORING_PASSES = 4
 #: The prior precision (1/dB^2) that holds a knot the receptions cannot resolve at 0 dB.
@@ -132,14 +133,12 @@ def fit_channel(
     n_elev = max(len(knots) - 1, 0)
     i_exp = n_tx + n_rx
     n_params = i_exp + 1 + n_elev
-    design = np.zeros((k, n_params))
-    rows = np.arange(k)
-    design[rows, tx_col] = 1.0
-    design[rows, n_tx + rx_col] = 1.0
-    design[:, i_exp] = -10.0 * np.log10(np.maximum(distance_m, 1.0))
+    dense = np.zeros((k, 1 + n_elev))
+    dense[:, 0] = -10.0 * np.log10(np.maximum(distance_m, 1.0))
     if n_elev:
         assert elevation_deg is not None
-        design[:, i_exp + 1 :] = _hat_basis(elevation_deg, knots)[:, 1:]
+        dense[:, 1:] = _hat_basis(elevation_deg, knots)[:, 1:]
+    design = Design(tx_col.astype(np.int64), rx_col.astype(np.int64), n_tx, n_rx, dense)
     prior_precision = np.zeros(n_params)
     prior_mean = np.zeros(n_params)
     prior_precision[n_tx:i_exp] = 1.0 / cfg.receiver_bias_prior_std_db**2
@@ -159,7 +158,7 @@ def fit_channel(
             prior_precision[gain] = np.where(held, _PINNED_PRECISION, prior_precision[gain])
             theta, covariance, scale2, target_dbm = fit(prior_precision)
             theta[gain] = np.where(held, 0.0, theta[gain])  # exactly: within 1e-12 already
-    residual = target_dbm - design @ theta
+    residual = target_dbm - design.predict(theta)
     return ChannelEstimate(
         exponent=float(theta[i_exp]),
         exponent_std=float(np.sqrt(covariance[i_exp, i_exp])),
@@ -173,8 +172,74 @@ def fit_channel(
     )
 
 
+@dataclass(frozen=True, eq=False)
+class Design:
+    """The fit's design matrix ``(K, n_tx + n_rx + D)`` as it is: a one in the column of each
+    reception's transmitter and of its receiver, and ``dense`` ``(K, D)`` columns (the
+    log-distance term, the knots' weights). The normal equations come from group sums,
+    O(K D^2), where the matrix product was O(K p^2) (p ~ 35 at 16 aircraft)."""
+
+    tx_col: IntArray
+    rx_col: IntArray
+    n_tx: int
+    n_rx: int
+    dense: FloatArray
+
+    @property
+    def n_params(self) -> int:
+        return self.n_tx + self.n_rx + int(self.dense.shape[1])
+
+    def matrix(self) -> FloatArray:
+        """The design as a dense matrix (for reference)."""
+        out = np.zeros((self.dense.shape[0], self.n_params))
+        rows = np.arange(self.dense.shape[0])
+        out[rows, self.tx_col] = 1.0
+        out[rows, self.n_tx + self.rx_col] = 1.0
+        out[:, self.n_tx + self.n_rx :] = self.dense
+        return out
+
+    def predict(self, theta: FloatArray) -> FloatArray:
+        """``design @ theta``."""
+        d0 = self.n_tx + self.n_rx
+        out: FloatArray = (
+            theta[self.tx_col] + theta[self.n_tx + self.rx_col] + self.dense @ theta[d0:]
+        )
+        return out
+
+    def transpose_times(self, v: FloatArray) -> FloatArray:
+        """``design.T @ v``."""
+        return np.concatenate(
+            [
+                np.bincount(self.tx_col, weights=v, minlength=self.n_tx),
+                np.bincount(self.rx_col, weights=v, minlength=self.n_rx),
+                self.dense.T @ v,
+            ]
+        )
+
+    def gram(self, w: FloatArray) -> FloatArray:
+        """``design.T @ diag(w) @ design``."""
+        n_tx, n_rx, d0 = self.n_tx, self.n_rx, self.n_tx + self.n_rx
+        out = np.zeros((self.n_params, self.n_params))
+        tx_diag = np.arange(n_tx)
+        rx_diag = n_tx + np.arange(n_rx)
+        out[tx_diag, tx_diag] = np.bincount(self.tx_col, weights=w, minlength=n_tx)
+        out[rx_diag, rx_diag] = np.bincount(self.rx_col, weights=w, minlength=n_rx)
+        pair = self.tx_col * n_rx + self.rx_col
+        cross = np.bincount(pair, weights=w, minlength=n_tx * n_rx).reshape(n_tx, n_rx)
+        out[:n_tx, n_tx:d0] = cross
+        out[n_tx:d0, :n_tx] = cross.T
+        wd = self.dense * w[:, None]
+        for j in range(self.dense.shape[1]):
+            by_tx = np.bincount(self.tx_col, weights=wd[:, j], minlength=n_tx)
+            by_rx = np.bincount(self.rx_col, weights=wd[:, j], minlength=n_rx)
+            out[:n_tx, d0 + j] = out[d0 + j, :n_tx] = by_tx
+            out[n_tx:d0, d0 + j] = out[d0 + j, n_tx:d0] = by_rx
+        out[d0:, d0:] = wd.T @ self.dense
+        return out
+
+
 def _censored_irls(
-    design: FloatArray,
+    design: Design,
     rssi_dbm: FloatArray,
     prior_mean: FloatArray,
     cfg: CalibrationConfig,
@@ -184,47 +249,50 @@ def _censored_irls(
     """``_irls`` and the RSSI it was fitted to: with a finite ``floor_dbm``, refitted on the
     RSSI less the lift expected at the previous pass's means, ``CENSORING_PASSES`` times
     (``censoring.py``)."""
-    theta, covariance, scale2 = _irls(design, rssi_dbm, prior_mean, prior_precision, cfg)
+    theta, covariance, scale2, weights = _irls(design, rssi_dbm, prior_mean, prior_precision, cfg)
     target_dbm = rssi_dbm
     if not math.isfinite(floor_dbm):
         return theta, covariance, scale2, target_dbm
-    dof = max(design.shape[0] - design.shape[1], 1)
+    dof = max(design.dense.shape[0] - design.n_params, 1)
     for _ in range(CENSORING_PASSES):
-        mean_dbm = design @ theta
+        mean_dbm = design.predict(theta)
         sigma_db = float(np.sqrt(np.sum((target_dbm - mean_dbm) ** 2) / dof))
         lift_db = significant_lift_db(mean_dbm, floor_dbm, sigma_db)
         if not lift_db.any():
             break  # the cut binds on no link: the plain fit
         target_dbm = rssi_dbm - lift_db
-        theta, covariance, scale2 = _irls(design, target_dbm, prior_mean, prior_precision, cfg)
+        theta, covariance, scale2, weights = _irls(
+            design, target_dbm, prior_mean, prior_precision, cfg, (weights, scale2)
+        )
     return theta, covariance, scale2, target_dbm
 
 
 def _irls(
-    design: FloatArray,
+    design: Design,
     rssi_dbm: FloatArray,
     prior_mean: FloatArray,
     prior_precision: FloatArray,
     cfg: CalibrationConfig,
-) -> tuple[FloatArray, FloatArray, float]:
-    """(theta, its covariance (dB^2), the Student-t scale s^2) by iteratively reweighted
-    least squares with the priors (module docstring)."""
+    start: tuple[FloatArray, float] | None = None,
+) -> tuple[FloatArray, FloatArray, float, FloatArray]:
+    """(theta, its covariance (dB^2), the Student-t scale s^2, the last weights) by
+    iteratively reweighted least squares with the priors (module docstring): from unit
+    weights, ``IRLS_PASSES`` passes, or from a previous fit's weights and scale ``start``
+    (the RSSI barely changed), ``WARM_IRLS_PASSES``."""
     k = rssi_dbm.shape[0]
-    weights = np.ones(k)
-    scale2 = 1.0
+    weights, scale2 = (np.ones(k), 1.0) if start is None else start
     theta = prior_mean
     normal = np.diag(prior_precision)
-    for _ in range(IRLS_PASSES):
-        aw = design * weights[:, None]
+    for _ in range(IRLS_PASSES if start is None else WARM_IRLS_PASSES):
         # Priors are in units of the noise: scale them by 1 / s^2 relative to the data.
-        normal = aw.T @ design / scale2 + np.diag(prior_precision)
-        rhs = aw.T @ rssi_dbm / scale2 + prior_precision * prior_mean
+        normal = design.gram(weights) / scale2 + np.diag(prior_precision)
+        rhs = design.transpose_times(weights * rssi_dbm) / scale2 + prior_precision * prior_mean
         theta = np.asarray(np.linalg.solve(normal, rhs), dtype=np.float64)
-        residual = rssi_dbm - design @ theta
+        residual = rssi_dbm - design.predict(theta)
         scale2 = max(float(np.sum(weights * residual**2) / k), 1e-6)
         weights = (cfg.student_dof + 1.0) / (cfg.student_dof + residual**2 / scale2)
     covariance = np.asarray(np.linalg.inv(normal), dtype=np.float64)
-    return theta, covariance, scale2
+    return theta, covariance, scale2, weights
 
 
 def _hat_basis(x: FloatArray, knots: tuple[float, ...]) -> FloatArray:

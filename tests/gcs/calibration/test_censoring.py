@@ -17,7 +17,7 @@ from ridsafe.gcs.calibration.censoring import (
     lift_at_claims,
     significant_lift_db,
 )
-from ridsafe.gcs.calibration.channel_fit import fit_channel
+from ridsafe.gcs.calibration.channel_fit import Design, fit_channel
 from ridsafe.gcs.calibration.config import CalibrationConfig
 from ridsafe.gcs.calibration.pipeline import CalibratingPipeline, to_free_space_all
 from ridsafe.gcs.pipeline_config import PipelineConfig
@@ -174,3 +174,22 @@ def test_the_lift_is_a_setting() -> None:
         pipeline.step(0.0, claims)
     assert on._floor_dbm() == min(float(c.rssi_dbm.min()) for c in claims)
     assert off._floor_dbm() == -math.inf
+
+
+def test_the_designs_group_sums_are_the_dense_matrix_products() -> None:
+    """``channel_fit.Design`` (the normal equations from group sums) against the dense
+    design matrix it stands for."""
+    rng = np.random.default_rng(13)
+    tx, rx, d, _, _ = _links(13, 3.0, CUT_DBM, k=3000)
+    _, tx_col = np.unique(tx, return_inverse=True)
+    _, rx_col = np.unique(rx, return_inverse=True)
+    dense = np.column_stack([-10.0 * np.log10(d), rng.uniform(0.0, 1.0, (d.shape[0], 3))])
+    design = Design(tx_col, rx_col, int(tx_col.max()) + 1, int(rx_col.max()) + 1, dense)
+    matrix = design.matrix()
+    n = int(d.shape[0])
+    w = rng.uniform(0.2, 1.5, size=(n,))
+    v = rng.normal(0.0, 1.0, size=(n,))
+    theta = rng.normal(0.0, 1.0, design.n_params)
+    np.testing.assert_allclose(design.gram(w), matrix.T @ (matrix * w[:, None]), rtol=1e-12)
+    np.testing.assert_allclose(design.transpose_times(v), matrix.T @ v, rtol=1e-10, atol=1e-9)
+    np.testing.assert_allclose(design.predict(theta), matrix @ theta, rtol=1e-12, atol=1e-12)
