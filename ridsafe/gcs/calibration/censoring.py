@@ -54,6 +54,7 @@ __all__ = [
     "MAX_ALPHA",
     "NEGLIGIBLE_LIFT_SIGMA",
     "SensitivityFloor",
+    "claim_medians",
     "expected_lift_db",
     "lift_at_claims",
     "significant_lift_db",
@@ -124,19 +125,21 @@ def lift_at_claims(
         return np.zeros_like(rssi_dbm)
     implied = rssi_dbm - bias_db + loss_db
     bounds = reception_bounds(claims)
-    level = _claim_medians(implied, bounds)
+    level = claim_medians(implied, bounds)
     first = significant_lift_db(level + bias_db - loss_db, floor_dbm, sigma_db)
-    level = _claim_medians(implied - first, bounds)
+    level = claim_medians(implied - first, bounds)
     return significant_lift_db(level + bias_db - loss_db, floor_dbm, sigma_db)
 
 
-def _claim_medians(values: FloatArray, bounds: NDArray[np.int64]) -> FloatArray:
+def claim_medians(values: FloatArray, bounds: NDArray[np.int64]) -> FloatArray:
     """``(k,)``: each reception's claim's median of ``values`` (claim j's rows
-    ``bounds[j]:bounds[j + 1]``), every claim in one call."""
+    ``bounds[j]:bounds[j + 1]``), every claim in one sort."""
     counts = np.diff(bounds)
     claim_of = np.repeat(np.arange(counts.shape[0]), counts)
-    padded = np.full((counts.shape[0], max(int(counts.max(initial=0)), 1)), np.nan)
+    padded = np.full((counts.shape[0], max(int(counts.max(initial=0)), 1)), np.inf)
     padded[claim_of, np.arange(values.shape[0]) - bounds[claim_of]] = values
-    padded[counts == 0, 0] = 0.0  # a claim heard by no one: a row no reception reads
-    medians: FloatArray = np.nanmedian(padded, axis=1)[claim_of]
-    return medians
+    padded.sort(axis=1)
+    rows = np.arange(counts.shape[0])
+    low, high = np.maximum(counts - 1, 0) // 2, counts // 2
+    medians: FloatArray = 0.5 * (padded[rows, low] + padded[rows, high])
+    return medians[claim_of]

@@ -13,6 +13,7 @@ from scipy.stats import truncnorm
 from ridsafe.gcs.calibration.censoring import (
     NEGLIGIBLE_LIFT_SIGMA,
     SensitivityFloor,
+    claim_medians,
     expected_lift_db,
     lift_at_claims,
     significant_lift_db,
@@ -193,3 +194,18 @@ def test_the_designs_group_sums_are_the_dense_matrix_products() -> None:
     np.testing.assert_allclose(design.gram(w), matrix.T @ (matrix * w[:, None]), rtol=1e-12)
     np.testing.assert_allclose(design.transpose_times(v), matrix.T @ v, rtol=1e-10, atol=1e-9)
     np.testing.assert_allclose(design.predict(theta), matrix @ theta, rtol=1e-12, atol=1e-12)
+
+
+def test_claim_medians_are_numpys_median_of_each_claim() -> None:
+    rng = np.random.default_rng(14)
+    counts = np.array([1, 2, 5, 0, 6, 3])
+    bounds = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    values = rng.normal(0.0, 5.0, int(counts.sum()))
+    expected = np.concatenate(
+        [
+            np.full(c, np.median(values[lo : lo + c]))
+            for lo, c in zip(bounds[:-1], counts, strict=True)
+            if c
+        ]
+    )
+    np.testing.assert_array_equal(claim_medians(values, bounds), expected)
