@@ -20,16 +20,16 @@ The correction subtracts the expected lift instead of dropping the links near th
 early links near the cut are the early evidence, and on a noisy channel the cut's margin
 would cover most of them):
 
-* the fit (``channel_fit.fit_channel`` with a floor): fitted on ``rssi - sigma lambda``
-  with the lift taken at the previous pass's fitted means, until the passes agree: the fixed
-  point solves the truncated normal's likelihood equation sum_k x_k (rssi_k - mu_k -
-  sigma lambda_k) = 0;
+* the fit (``channel_fit.fit_channel`` with a floor): fitted again on ``rssi - sigma
+  lambda`` with the lift taken at the previous pass's fitted means (``CENSORING_PASSES``
+  times); the fixed point solves the truncated normal's likelihood equation
+  sum_k x_k (rssi_k - mu_k - sigma lambda_k) = 0;
 * the detectors (``lift_at_claims``): each claim's receptions less the lift their link
   would have were the claim true, the transmitter's level the median of its receptions'
   implied levels at the claimed position (taken twice, the second time on the corrected
   RSSI): a test of the claim, the same rule for the fleet's claims and a stranger's, so the
-  empirical null stays comparable (``review.py``). The tracks keep the RSSI as received: a
-  liar's claimed position says nothing of its links.
+  empirical null stays comparable (``review.py``). The tracks keep the plain fit and the
+  RSSI as received: a liar's claimed position says nothing of its links.
 
 The GCS is not told the sensitivity. ``SensitivityFloor`` takes the weakest RSSI any
 receiver has reported: with a cut, receptions pile up just above it; without one it is a
