@@ -46,7 +46,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.special import log_ndtr
 
-from ridsafe.gcs.pipeline_api import ObservedClaim, reception_bounds
+from ridsafe.gcs.pipeline_api import ObservedClaim
 
 FloatArray = NDArray[np.float64]
 
@@ -110,21 +110,21 @@ def significant_lift_db(mean_dbm: FloatArray, floor_dbm: float, sigma_db: float)
 
 
 def lift_at_claims(
-    claims: Sequence[ObservedClaim],
+    rssi_dbm: FloatArray,
+    bounds: NDArray[np.int64],
     loss_db: FloatArray,
     bias_db: FloatArray,
     floor_dbm: float,
     sigma_db: float,
 ) -> FloatArray:
     """Every reception's expected lift (dB, in order; 0 where negligible) were its claim
-    true: ``loss_db`` and ``bias_db`` (``(k,)``, the fitted path loss from the claimed
-    position, antenna gain included, and the receiver's bias), the claim's level the median
-    implied level, taken twice (module docstring)."""
-    rssi_dbm = np.concatenate([claim.rssi_dbm for claim in claims])
+    true: ``rssi_dbm``, ``loss_db`` and ``bias_db`` ``(k,)`` (the fitted path loss from the
+    claimed position, antenna gain included, and the receiver's bias), claim j's rows
+    ``bounds[j]:bounds[j + 1]``; the claim's level the median implied level, taken twice
+    (module docstring)."""
     if not math.isfinite(floor_dbm):
         return np.zeros_like(rssi_dbm)
     implied = rssi_dbm - bias_db + loss_db
-    bounds = reception_bounds(claims)
     level = claim_medians(implied, bounds)
     first = significant_lift_db(level + bias_db - loss_db, floor_dbm, sigma_db)
     level = claim_medians(implied - first, bounds)

@@ -189,15 +189,6 @@ class Design:
     def n_params(self) -> int:
         return self.n_tx + self.n_rx + int(self.dense.shape[1])
 
-    def matrix(self) -> FloatArray:
-        """The design as a dense matrix (for reference)."""
-        out = np.zeros((self.dense.shape[0], self.n_params))
-        rows = np.arange(self.dense.shape[0])
-        out[rows, self.tx_col] = 1.0
-        out[rows, self.n_tx + self.rx_col] = 1.0
-        out[:, self.n_tx + self.n_rx :] = self.dense
-        return out
-
     def predict(self, theta: FloatArray) -> FloatArray:
         """``design @ theta``."""
         d0 = self.n_tx + self.n_rx

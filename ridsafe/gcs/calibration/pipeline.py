@@ -121,8 +121,11 @@ def to_free_space_all(
     tracks' is not."""
     if not claims:
         return []
-    bounds = reception_bounds(claims).tolist()
-    mapped = _mapped(claims, estimate, pivot_dbm)
+    bounds_array = reception_bounds(claims)
+    bounds = bounds_array.tolist()
+    rssi_dbm = np.concatenate([claim.rssi_dbm for claim in claims])
+    rx_sysid = np.concatenate([claim.rx_sysid for claim in claims])
+    mapped = _mapped(rssi_dbm - estimate.bias_of(rx_sysid), estimate, pivot_dbm)
     if tested is None and not math.isfinite(floor_dbm):
         return [
             dataclasses.replace(claim, rssi_dbm=mapped[bounds[j] : bounds[j + 1]])
@@ -131,12 +134,14 @@ def to_free_space_all(
     tested = estimate if tested is None else tested
     distance_m, elevation_deg = claim_links(claims)
     gain_db = tested.elevation_gain_of(elevation_deg)
-    lift_db = None
+    bias_db = tested.bias_of(rx_sysid)
+    corrected = rssi_dbm - bias_db - gain_db
     if math.isfinite(floor_dbm):
         loss_db = 10.0 * tested.exponent * np.log10(np.maximum(distance_m, 1.0)) - gain_db
-        bias_db = tested.bias_of(np.concatenate([claim.rx_sysid for claim in claims]))
-        lift_db = lift_at_claims(claims, loss_db, bias_db, floor_dbm, tested.sigma_db)
-    for_test = _mapped(claims, tested, pivot_dbm, gain_db, lift_db)
+        corrected = corrected - lift_at_claims(
+            rssi_dbm, bounds_array, loss_db, bias_db, floor_dbm, tested.sigma_db
+        )
+    for_test = _mapped(corrected, tested, pivot_dbm)
     return [
         dataclasses.replace(
             claim,
@@ -147,23 +152,10 @@ def to_free_space_all(
     ]
 
 
-def _mapped(
-    claims: Sequence[ObservedClaim],
-    estimate: ChannelEstimate,
-    pivot_dbm: float,
-    gain_db: FloatArray | None = None,
-    lift_db: FloatArray | None = None,
-) -> FloatArray:
-    """The claims' RSSI, less the receivers' biases (and the links' ``gain_db`` and
-    expected ``lift_db`` where given), scaled about ``pivot_dbm`` (module docstring)."""
-    rssi_dbm = np.concatenate([claim.rssi_dbm for claim in claims])
-    rx_sysid = np.concatenate([claim.rx_sysid for claim in claims])
-    corrected = rssi_dbm - estimate.bias_of(rx_sysid)
-    if gain_db is not None:
-        corrected = corrected - gain_db
-    if lift_db is not None:
-        corrected = corrected - lift_db
-    return readonly(pivot_dbm + (2.0 / estimate.exponent) * (corrected - pivot_dbm))
+def _mapped(corrected_dbm: FloatArray, estimate: ChannelEstimate, pivot_dbm: float) -> FloatArray:
+    """RSSI already less the receivers' biases (and whatever else the caller corrects),
+    scaled about ``pivot_dbm`` (module docstring)."""
+    return readonly(pivot_dbm + (2.0 / estimate.exponent) * (corrected_dbm - pivot_dbm))
 
 
 class CalibratingPipeline:
@@ -347,16 +339,13 @@ class CalibratingPipeline:
         cal = self.config.calibration
         plain = dataclasses.replace(cal, elevation_knots_deg=())
         estimate = fit_channel(s.tx_sysid, s.rx_sysid, s.distance_m, s.rssi_dbm, plain)
-        tested = fit_channel(
-            s.tx_sysid,
-            s.rx_sysid,
-            s.distance_m,
-            s.rssi_dbm,
-            cal,
-            s.elevation_deg,
-            self._floor_dbm(),
-        )
-        self.tested_estimate = None if tested == estimate else tested
+        floor_dbm = self._floor_dbm()
+        self.tested_estimate = None  # the detectors' own fit, where it is not the plain one
+        if cal.elevation_knots_deg or math.isfinite(floor_dbm):
+            tested = fit_channel(
+                s.tx_sysid, s.rx_sysid, s.distance_m, s.rssi_dbm, cal, s.elevation_deg, floor_dbm
+            )
+            self.tested_estimate = None if tested == estimate else tested
         logger.info(
             "channel calibrated on %d receptions: exponent %.2f +/- %.2f, sigma %.2f dB "
             "(robust scale %.2f dB), receiver biases std %.2f dB",

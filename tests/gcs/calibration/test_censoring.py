@@ -21,7 +21,9 @@ from ridsafe.gcs.calibration.censoring import (
 from ridsafe.gcs.calibration.channel_fit import Design, fit_channel
 from ridsafe.gcs.calibration.config import CalibrationConfig
 from ridsafe.gcs.calibration.pipeline import CalibratingPipeline, to_free_space_all
+from ridsafe.gcs.pipeline_api import reception_bounds
 from ridsafe.gcs.pipeline_config import PipelineConfig
+from tests.gcs.calibration.links import random_links
 from tests.gcs.claims import observed_claim
 
 CFG = CalibrationConfig(enabled=True, min_samples=200, min_time_s=0.0, elevation_knots_deg=())
@@ -60,11 +62,7 @@ def _links(seed: int, exponent: float, cut_dbm: float, k: int = 12_000) -> tuple
     """Receptions of 12 transmitters by 12 receivers at 30-900 m, 1 dB noise, with only those
     at or above ``cut_dbm`` reported."""
     rng = np.random.default_rng(seed)
-    n = 12
-    level = -10.0 + rng.normal(0.0, 1.0, n)
-    tx = rng.integers(1, n + 1, k)
-    rx = (tx + rng.integers(1, n, k) - 1) % n + 1
-    d = rng.uniform(30.0, 900.0, k)
+    level, tx, rx, d = random_links(rng, 12, k, -10.0, (30.0, 900.0))
     rssi = level[tx - 1] - 10.0 * exponent * np.log10(d) + rng.normal(0.0, 1.0, k)
     kept = rssi >= cut_dbm
     return tx[kept], rx[kept], d[kept], rssi[kept], level
@@ -126,13 +124,14 @@ def _heard_claims(seed: int, n_claims: int) -> tuple[list, np.ndarray, np.ndarra
 def test_the_detectors_rssi_less_the_lift_is_centred_on_the_links_mean() -> None:
     claims, loss, mean = _heard_claims(8, 400)
     rssi = np.concatenate([c.rssi_dbm for c in claims])
-    lift = lift_at_claims(claims, loss, np.zeros_like(loss), CUT_DBM, 1.0)
+    bounds = reception_bounds(claims)
+    lift = lift_at_claims(rssi, bounds, loss, np.zeros_like(loss), CUT_DBM, 1.0)
     near = mean < CUT_DBM + 1.0
     assert np.mean(rssi[near] - mean[near]) > 0.5  # what the cut let through, unmodelled
     assert np.mean(rssi[near] - lift[near] - mean[near]) == pytest.approx(0.0, abs=0.1)
     far = mean > CUT_DBM + 5.0
     assert lift[far].tolist() == [0.0] * int(far.sum())
-    assert lift_at_claims(claims, loss, np.zeros_like(loss), -math.inf, 1.0).max() == 0.0
+    assert lift_at_claims(rssi, bounds, loss, np.zeros_like(loss), -math.inf, 1.0).max() == 0.0
 
 
 def test_the_floor_is_the_weakest_rssi_reported() -> None:
@@ -155,7 +154,9 @@ def test_the_pipeline_maps_the_detectors_rssi_less_the_lift_and_the_tracks_witho
     fitted_loss = 10.0 * estimate.exponent * np.log10(np.concatenate(
         [np.linalg.norm(c.rx_p_enu_m - c.claimed_p_enu_m, axis=1) for c in claims]
     ))  # fmt: skip
-    lift = lift_at_claims(claims, fitted_loss, bias, CUT_DBM, estimate.sigma_db)
+    rssi = np.concatenate([c.rssi_dbm for c in claims])
+    bounds = reception_bounds(claims)
+    lift = lift_at_claims(rssi, bounds, fitted_loss, bias, CUT_DBM, estimate.sigma_db)
     assert lift.max() > 0.5
     tested = np.concatenate([c.rssi_dbm for c in mapped])
     tracks = np.concatenate([c.track_rssi_dbm for c in mapped])
@@ -177,6 +178,16 @@ def test_the_lift_is_a_setting() -> None:
     assert off._floor_dbm() == -math.inf
 
 
+def _dense(design: Design) -> np.ndarray:
+    """The design as the dense matrix it stands for."""
+    k = design.dense.shape[0]
+    out = np.zeros((k, design.n_params))
+    out[np.arange(k), design.tx_col] = 1.0
+    out[np.arange(k), design.n_tx + design.rx_col] = 1.0
+    out[:, design.n_tx + design.n_rx :] = design.dense
+    return out
+
+
 def test_the_designs_group_sums_are_the_dense_matrix_products() -> None:
     """``channel_fit.Design`` (the normal equations from group sums) against the dense
     design matrix it stands for."""
@@ -186,7 +197,7 @@ def test_the_designs_group_sums_are_the_dense_matrix_products() -> None:
     _, rx_col = np.unique(rx, return_inverse=True)
     dense = np.column_stack([-10.0 * np.log10(d), rng.uniform(0.0, 1.0, (d.shape[0], 3))])
     design = Design(tx_col, rx_col, int(tx_col.max()) + 1, int(rx_col.max()) + 1, dense)
-    matrix = design.matrix()
+    matrix = _dense(design)
     n = int(d.shape[0])
     w = rng.uniform(0.2, 1.5, size=(n,))
     v = rng.normal(0.0, 1.0, size=(n,))

@@ -19,6 +19,7 @@ from ridsafe.gcs.pipeline import FORGET_AFTER_S
 from ridsafe.gcs.pipeline_api import ObservedClaim, for_tracks
 from ridsafe.gcs.pipeline_config import PipelineConfig
 from ridsafe.gcs.synthetic.traffic import Scene, Traffic, make_traffic
+from tests.gcs.calibration.links import random_links
 from tests.gcs.claims import free_space_claim
 
 KNOTS = (0.0, 10.0, 20.0, 30.0, 45.0, 60.0, 90.0)
@@ -29,11 +30,7 @@ def _dipoles(seed: int, k: int = 4000) -> tuple[np.ndarray, ...]:
     """Vertical half-wave dipoles at both ends, level aircraft: the link at elevation e sees
     each antenna at 90 - e degrees from its axis. Free space, 1 dB."""
     rng = np.random.default_rng(seed)
-    n = 12
-    level = -20.0 + rng.normal(0.0, 1.0, n)
-    tx = rng.integers(1, n + 1, k)
-    rx = (tx + rng.integers(1, n, k) - 1) % n + 1
-    d = rng.uniform(40.0, 800.0, k)
+    level, tx, rx, d = random_links(rng, 12, k, -20.0, (40.0, 800.0))
     elevation = np.degrees(np.arcsin(rng.uniform(0.0, 0.8, k) ** 2))  # mostly near level
     pattern = 2.0 * (dipole_gain_dbi(np.sin(np.radians(elevation))) - dipole_gain_dbi(0.0))
     rssi = level[tx - 1] - 20.0 * np.log10(d) + pattern + rng.normal(0.0, 1.0, k)
