@@ -107,3 +107,60 @@ def test_a_cycle_adds_the_rows_one_add_per_claim_would(max_samples: int) -> None
             assert np.array_equal(getattr(batched, column), written[:, j])
         assert len(batched) == min(added, max_samples)
     assert (added > max_samples) == (max_samples < 5000)  # wrapped, or never full
+
+
+def _heard(
+    uas_id: str, t_s: float, claimed: list[float], rx: dict[int, list[float]]
+) -> ObservedClaim:
+    """A claim heard by the receivers ``rx`` (system id -> where each reports being)."""
+    sysid = np.array(list(rx), dtype=np.int64)
+    sysid.setflags(write=False)
+    return ObservedClaim(
+        uas_id,
+        t_s,
+        readonly(np.array(claimed)),
+        None,
+        sysid,
+        readonly(np.array(list(rx.values()), dtype=float)),
+        readonly(np.full(len(rx), t_s)),
+        readonly(np.full(len(rx), -70.0)),
+    )
+
+
+def test_the_claims_before_a_serials_label_yield_its_receptions_once_labelled() -> None:
+    """Two aircraft (receivers 5 and 6) hear each other and a mast (9) hears both. Each
+    serial is labelled at its third matching claim (A's first claim matches 5, whose
+    position B's reception gave; B's first cannot match, 6 is not known yet), and then the
+    receptions of all three count, two receivers each."""
+    labeller = CooperativeLabeller(CalibrationConfig(enabled=True, min_matches=3))
+    mast = [0.0, 0.0, 10.0]
+    for k in range(4):
+        t, a, b = float(k), [100.0 * k, 0.0, 50.0], [0.0, 300.0, 60.0 + k]
+        labeller.observe_all(
+            [_heard("B", t, b, {5: a, 9: mast}), _heard("A", t, a, {6: b, 9: mast})]
+        )
+        assert len(labeller.samples) == [0, 0, 6, 14][k]
+    assert labeller.labels() == {"A": 5, "B": 6}
+    tx, rx = labeller.samples.tx_sysid, labeller.samples.rx_sysid
+    assert sorted(zip(tx.tolist(), rx.tolist(), strict=True)) == sorted(
+        4 * [(5, 6), (5, 9)] + 3 * [(6, 5), (6, 9)]
+    )
+
+
+def test_a_claim_that_matched_another_receiver_before_the_label_yields_nothing() -> None:
+    """Serial A's first claim lies at receiver 7's position, the next four at receiver 5's:
+    labelled 5 at the fifth claim (four of five votes), and only those four claims count."""
+    labeller = CooperativeLabeller(CalibrationConfig(enabled=True, min_matches=3))
+    seven, mast = [500.0, 0.0, 40.0], [0.0, 0.0, 10.0]
+    for k in range(5):
+        t, a = float(k), [100.0 * k, 0.0, 50.0]
+        claimed = seven if k == 0 else a
+        labeller.observe_all(
+            [
+                _heard("C", t, [0.0, 300.0, 60.0], {5: a, 7: seven}),
+                _heard("A", t, claimed, {9: mast}),
+            ]
+        )
+        assert labeller.label_of("A") == (5 if k == 4 else None)
+    from_a = labeller.samples.tx_sysid == 5
+    assert int(from_a.sum()) == 4
