@@ -158,7 +158,11 @@ def test_the_file_is_finished_when_the_runs_process_dies(tmp_path: Path) -> None
     )
     done = subprocess.run([sys.executable, "-c", script], timeout=60, check=False)
     assert done.returncode == 3
-    wait_for(lambda: path.read_bytes().endswith(MCAP_MAGIC), "the orphan to finish the file")
+    # The orphaned recorder may not have created the file yet when the run's process is gone.
+    wait_for(
+        lambda: path.exists() and path.read_bytes().endswith(MCAP_MAGIC),
+        "the orphan to finish the file",
+    )
     raw_messages(path)  # the seeking reader needs the summary and footer
     times = [t for _topic, t, _r in read_records(path)]
     assert times == pytest.approx([0.25 * k for k in range(21)])  # up to the record at 5.0 s
