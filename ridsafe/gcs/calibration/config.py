@@ -52,7 +52,8 @@ class CalibrationConfig:
     #: ... and not before the fitted path-loss exponent's standard error is at most this:
     #: links that span few distances (a small fleet waiting at its depots) leave the
     #: exponent loose whatever their number, and a loose exponent maps every later link's
-    #: RSSI wrong. None: the warm-up's count alone.
+    #: RSSI wrong. None: the warm-up's count alone. (A configured channel rejected by a
+    #: later check, ``auto``, is replaced by the fit at once.)
     max_exponent_std: float | None = 0.15
     #: A claim is a cooperative aircraft's when it lies within this of one receiver's own
     #: reported position (reported within ``match_age_s`` of the claim), ...

@@ -321,7 +321,8 @@ class CooperativeLabeller:
                     pending.append((match, claim))
                 continue
             earlier = self._pending.pop(uas_id, ())
-            labelled.extend((label, _airborne(c, h)) for m, c in earlier if m == label)
+            if self.learning:
+                labelled.extend((label, _airborne(c, h)) for m, c in earlier if m == label)
             if label == match:
                 labelled.append((match, _airborne(claim, h)))
         self.samples.add_claims(labelled)

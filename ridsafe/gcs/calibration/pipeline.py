@@ -2,8 +2,9 @@ r"""A GCS pipeline that is not told the channel: it calibrates on its cooperativ
 
 ``CalibratingPipeline`` wraps the estimation pipeline (``gcs/pipeline.py``). Until it has
 enough labelled receptions (``cooperative.py``) for the parameters the fit has
-(``samples_per_parameter`` each, at least ``min_samples``) and ``min_time_s`` has passed it
-holds the claims (the last ``hold_s`` seconds); then it fits the channel
+(``samples_per_parameter`` each, at least ``min_samples``), ``min_time_s`` has passed and the
+fitted exponent's standard error is within ``max_exponent_std``, it holds the claims (the
+last ``hold_s`` seconds); then it fits the channel
 (``channel_fit.py``, again every ``refit_s``: the first fit sees the aircraft on the ground
 at their depots, a different channel from the airborne one) and hands the inner pipeline
 every claim, held ones first, with the RSSI mapped onto the free-space model the detectors
