@@ -47,14 +47,8 @@ class CalibrationConfig:
     #: fleet (16 aircraft: 33 parameters, 297 receptions; 8 aircraft: 153).
     samples_per_parameter: float = 9.0
     min_samples: int = 100
-    #: ... and no earlier than this (sim seconds), so several geometries are seen ...
+    #: ... and no earlier than this (sim seconds), so several geometries are seen.
     min_time_s: float = 2.0
-    #: ... and not before the fitted path-loss exponent's standard error is at most this:
-    #: links that span few distances (a small fleet waiting at its depots) leave the
-    #: exponent loose whatever their number, and a loose exponent maps every later link's
-    #: RSSI wrong. None: the warm-up's count alone. (A configured channel rejected by a
-    #: later check, ``auto``, is replaced by the fit at once.)
-    max_exponent_std: float | None = 0.15
     #: A claim is a cooperative aircraft's when it lies within this of one receiver's own
     #: reported position (reported within ``match_age_s`` of the claim), ...
     match_m: float = 10.0
@@ -149,8 +143,6 @@ class CalibrationConfig:
         check_non_negative("samples_per_parameter", self.samples_per_parameter)
         check_non_negative("elevation_gain_min_z", self.elevation_gain_min_z)
         check_non_negative("min_time_s", self.min_time_s)
-        if self.max_exponent_std is not None:
-            check_positive("max_exponent_std", self.max_exponent_std)
         check_non_negative("hold_s", self.hold_s)
         check_non_negative("refit_s", self.refit_s)
         check_non_negative("min_receiver_height_m", self.min_receiver_height_m)

@@ -5,18 +5,15 @@ receiver (by system id) says it is, from the observation reports. A claim whose 
 lies within ``match_m`` of exactly one receiver's recent own position, and that receiver is
 not among those that heard it (nobody hears itself), is that aircraft's; a serial is
 labelled cooperative once its matches agree (``min_matches``, at most
-``max_mismatch_fraction`` elsewhere). Each claim of a labelled serial that matches its
-receiver yields labelled receptions: (transmitter, receiver, distance, RSSI), the claims that
-matched it before the label was given too (up to ``PENDING_CLAIMS`` of them): they were that
-aircraft's by the same test, and waiting for the votes must not cost the fit its first
-seconds of receptions.
+``max_mismatch_fraction`` elsewhere). Each later claim of a labelled serial that still
+matches its receiver yields labelled receptions: (transmitter, receiver, distance, RSSI).
 A spoofer's claims sit far from where any receiver is, so they are never labelled; to poison
 the fit it would have to claim a benign aircraft's true position, and then it is harmless.
 """
 
 from __future__ import annotations
 
-from collections import Counter, deque
+from collections import Counter
 from collections.abc import Sequence
 
 import numpy as np
@@ -33,17 +30,7 @@ from ridsafe.gcs.pipeline_api import (
 
 FloatArray = NDArray[np.float64]
 
-__all__ = [
-    "PENDING_CLAIMS",
-    "CooperativeLabeller",
-    "LabelledReceptions",
-    "claim_links",
-    "link_elevation_deg",
-]
-
-#: Matching claims of a serial not labelled yet, kept (the newest) to yield their receptions
-#: once it is.
-PENDING_CLAIMS = 16
+__all__ = ["CooperativeLabeller", "LabelledReceptions", "claim_links", "link_elevation_deg"]
 
 
 class LabelledReceptions:
@@ -266,8 +253,6 @@ class CooperativeLabeller:
         self._receivers = _ReceiverPositions()
         self._votes: dict[str, Counter[int]] = {}
         self._labels: dict[str, int] = {}  # what the votes say (``_vote``)
-        #: (matched receiver, claim) of serials without a label, newest last
-        self._pending: dict[str, deque[tuple[int, ObservedClaim]]] = {}
         self.samples = LabelledReceptions(cfg.max_samples)
         #: False once nothing will be fitted or checked again: labelled serials keep their
         #: label without further votes and yield no samples (serials not yet labelled
@@ -306,25 +291,12 @@ class CooperativeLabeller:
         cfg = self.cfg
         matches = self._receivers.update_and_match(claims, cfg.match_age_s, cfg.match_m)
         labelled: list[tuple[int, ObservedClaim]] = []
-        h = cfg.min_receiver_height_m
         for claim, match in zip(claims, matches, strict=True):
-            uas_id = claim.uas_id
-            if match is None or (not self.learning and self.label_of(uas_id) is not None):
+            if match is None or (not self.learning and self.label_of(claim.uas_id) is not None):
                 continue
-            self._vote(uas_id, match)
-            label = self.label_of(uas_id)
-            if label is None:
-                if self.learning:
-                    pending = self._pending.get(uas_id)
-                    if pending is None:
-                        pending = self._pending[uas_id] = deque(maxlen=PENDING_CLAIMS)
-                    pending.append((match, claim))
-                continue
-            earlier = self._pending.pop(uas_id, ())
-            if self.learning:
-                labelled.extend((label, _airborne(c, h)) for m, c in earlier if m == label)
-            if label == match:
-                labelled.append((match, _airborne(claim, h)))
+            self._vote(claim.uas_id, match)
+            if self.label_of(claim.uas_id) == match:
+                labelled.append((match, _airborne(claim, cfg.min_receiver_height_m)))
         self.samples.add_claims(labelled)
 
     def vouches(self, claim: ObservedClaim) -> bool:

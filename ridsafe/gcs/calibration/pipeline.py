@@ -2,9 +2,8 @@ r"""A GCS pipeline that is not told the channel: it calibrates on its cooperativ
 
 ``CalibratingPipeline`` wraps the estimation pipeline (``gcs/pipeline.py``). Until it has
 enough labelled receptions (``cooperative.py``) for the parameters the fit has
-(``samples_per_parameter`` each, at least ``min_samples``), ``min_time_s`` has passed and the
-fitted exponent's standard error is within ``max_exponent_std``, it holds the claims (the
-last ``hold_s`` seconds); then it fits the channel
+(``samples_per_parameter`` each, at least ``min_samples``) and ``min_time_s`` has passed it
+holds the claims (the last ``hold_s`` seconds); then it fits the channel
 (``channel_fit.py``, again every ``refit_s``: the first fit sees the aircraft on the ground
 at their depots, a different channel from the airborne one) and hands the inner pipeline
 every claim, held ones first, with the RSSI mapped onto the free-space model the detectors
@@ -247,14 +246,13 @@ class CalibratingPipeline:
             if check.fits:
                 return False  # not sure yet: more receptions
             self._reject_configured(now_s, check)
-        plain = self._plain_fit() if self._ready(now_s) else None
-        if plain is None or not self._precise(plain):
+        if not self._ready(now_s):
             return False
-        self._start_fitted(now_s, plain)
+        self._start_fitted(now_s)
         return True
 
-    def _start_fitted(self, now_s: float, plain: ChannelEstimate | None = None) -> None:
-        self.estimate, self._checked_s = self._fit(self._rejection, plain), now_s
+    def _start_fitted(self, now_s: float) -> None:
+        self.estimate, self._checked_s = self._fit(self._rejection), now_s
         self._pivot_dbm = float(np.mean(list(self.estimate.tx_level_db.values())))
         self.inner = EstimationPipeline(self._calibrated_config(self.estimate), self.review)
 
@@ -334,28 +332,13 @@ class CalibratingPipeline:
             return False
         return n >= cal.samples_per_parameter * self.labeller.samples.n_parameters()
 
-    def _precise(self, plain: ChannelEstimate) -> bool:
-        """Is the first fit's exponent known well enough to start on it
-        (``CalibrationConfig.max_exponent_std``)?"""
-        bound = self.config.calibration.max_exponent_std
-        return bound is None or plain.exponent_std <= bound
-
-    def _plain_fit(self) -> ChannelEstimate:
-        """The fit without the links' gain by elevation or the sensitivity's lift: the one
-        the tracks' RSSI is mapped with."""
-        s = self.labeller.samples
-        cal = dataclasses.replace(self.config.calibration, elevation_knots_deg=())
-        return fit_channel(s.tx_sysid, s.rx_sysid, s.distance_m, s.rssi_dbm, cal)
-
-    def _fit(
-        self, rejection: ConfiguredChannelCheck | None, plain: ChannelEstimate | None = None
-    ) -> ChannelEstimate:
-        """Fit the channel to the labelled receptions (``plain``: the plain fit, made
-        already); the decision goes to the output with the check that rejected the
-        configured channel, if this fit follows one."""
+    def _fit(self, rejection: ConfiguredChannelCheck | None) -> ChannelEstimate:
+        """Fit the channel to the labelled receptions; the decision goes to the output with
+        the check that rejected the configured channel, if this fit follows one."""
         s = self.labeller.samples
         cal = self.config.calibration
-        estimate = self._plain_fit() if plain is None else plain
+        plain = dataclasses.replace(cal, elevation_knots_deg=())
+        estimate = fit_channel(s.tx_sysid, s.rx_sysid, s.distance_m, s.rssi_dbm, plain)
         floor_dbm = self._floor_dbm()
         self.tested_estimate = None  # the detectors' own fit, where it is not the plain one
         if cal.elevation_knots_deg or math.isfinite(floor_dbm):

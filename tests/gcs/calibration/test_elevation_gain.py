@@ -140,13 +140,9 @@ def test_the_detectors_sigma_follows_the_pattern_the_tracks_noise_does_not() -> 
     """Cooperative traffic through antennas that lose 0.4 dB per degree of elevation: the
     elevation fit explains the loss, so the detectors test with a smaller sigma, while the
     tracks, which get the RSSI without the gain, localise with the noise that RSSI shows,
-    as they do without the elevation fit (measured on it by the detectors run again). The
-    sensitivity's lift is left out: the pattern's steepest links are the weakest reported,
-    and what is compared here is the elevation fit alone."""
+    as they do without the elevation fit (measured on it by the detectors run again)."""
     traffic = make_traffic(Scene(seed=4, n_receivers=10, duration_s=40.0, with_spoofer=False))
-    cal = CalibrationConfig(
-        enabled=True, min_samples=100, elevation_knots_deg=KNOTS, sensitivity_lift=False
-    )
+    cal = CalibrationConfig(enabled=True, min_samples=100, elevation_knots_deg=KNOTS)
     with_fit = _run(traffic, cal, -0.4)
     without = _run(traffic, dataclasses.replace(cal, elevation_knots_deg=()), -0.4)
     assert with_fit.inner is not None and without.inner is not None
