@@ -63,20 +63,18 @@ with ln|R(t)| tabulated for t = 0, dt, ..., K dt.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any, NamedTuple, TypeVar, cast
+from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from ridsafe.common.jit import jit, jit_inline
 from ridsafe.companion.planner_config import PlannerConfig
 from ridsafe.companion.value import source_coefficient
 
 __all__ = ["KernelParams", "Regions", "score_all", "score_bounded"]
 
 FloatArray = NDArray[np.float64]
-_F = TypeVar("_F", bound=Callable[..., Any])
 #: (centre, P^-1, sqrt(lambda_min), sqrt(chi2), shield threshold) of a Scene's regions.
 Regions = tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]
 
@@ -89,17 +87,6 @@ BOUND_SLACK = 1e-9
 #: Actions scored before each next one's bound is tightened by its later samples' hazard (a
 #: decision that stops sooner pays nothing for it).
 TIGHTEN_AFTER = 32
-
-
-def _jit(fn: _F) -> _F:
-    """``numba.njit(cache=True)`` with the signature kept for mypy."""
-    return cast(_F, njit(cache=True)(fn))
-
-
-def _inline(fn: _F) -> _F:
-    """``_jit`` for the kernel's small helpers, inlined into their caller at numba's IR level:
-    a call per sample otherwise costs as much as the arithmetic it does."""
-    return cast(_F, njit(cache=True, inline="always")(fn))
 
 
 class KernelParams(NamedTuple):
@@ -195,7 +182,7 @@ def score_bounded(
     return int(_score_bounded_kernel(p0, v0, goal, va, bias, tau, nb_by_time, regions, kp, out, ok))
 
 
-@_jit
+@jit
 def _score_all_kernel(
     p0: FloatArray,
     v0: FloatArray,
@@ -217,7 +204,7 @@ def _score_all_kernel(
                       conflicts, out, ok)  # fmt: skip
 
 
-@_jit
+@jit
 def _score_bounded_kernel(
     p0: FloatArray,
     v0: FloatArray,
@@ -282,7 +269,7 @@ def _score_bounded_kernel(
     return int(np.count_nonzero(done))
 
 
-@_inline
+@jit_inline
 def _update_best(
     a: int, out: FloatArray, ok: NDArray[np.bool_], bias: FloatArray, best: float, free: float
 ) -> tuple[float, float]:
@@ -294,7 +281,7 @@ def _update_best(
     return best, free
 
 
-@_inline
+@jit_inline
 def _envelope_and_bound(
     path: FloatArray, goal: FloatArray, z0: float, kp: KernelParams, bound: FloatArray, a: int
 ) -> bool:
@@ -318,7 +305,7 @@ def _envelope_and_bound(
     return envelope_ok
 
 
-@_inline
+@jit_inline
 def _score_action(
     a: int,
     p0: FloatArray,
@@ -357,7 +344,7 @@ def _score_action(
     ok[a] = envelope_ok
 
 
-@_inline
+@jit_inline
 def _goal_score(path: FloatArray, goal: FloatArray, regions: Regions, kp: KernelParams) -> float:
     """G_a of a rolled-out path: the mean goal term plus the extension's loss X_a (the sums
     of ``_score_action``, in its order: the same bits)."""
@@ -368,7 +355,7 @@ def _goal_score(path: FloatArray, goal: FloatArray, regions: Regions, kp: Kernel
     return float(goal_sum / n_k + _extension_loss(path[n_k - 1], goal, n_k, regions, kp))
 
 
-@_inline
+@jit_inline
 def _hazard_at(
     x: float,
     y: float,
@@ -398,7 +385,7 @@ def _hazard_at(
     return min(h, h_region), d2, intruded
 
 
-@_inline
+@jit_inline
 def _region_distance(
     x: float, y: float, z: float, c: FloatArray, pinv: FloatArray, sigma: float, sqrt_chi2: float
 ) -> float:
@@ -413,7 +400,7 @@ def _region_distance(
     return sigma * max(0.0, math.sqrt(max(m, 0.0)) - sqrt_chi2)
 
 
-@_jit
+@jit
 def _near_neighbours(
     p0: FloatArray,
     v0: FloatArray,
@@ -450,7 +437,7 @@ def _near_neighbours(
     return near, count
 
 
-@_jit
+@jit
 def _benign_ln_reward(n_k: int, kp: KernelParams) -> FloatArray:
     """ln|R_j(t)| (value eq. 3) for a conflict that has lasted t = n sample_dt, n = 0..K."""
     table = np.empty(n_k + 1)
@@ -459,7 +446,7 @@ def _benign_ln_reward(n_k: int, kp: KernelParams) -> FloatArray:
     return table
 
 
-@_jit
+@jit
 def _rollout_into(
     p0: FloatArray, v0: FloatArray, va: FloatArray, tau: FloatArray, accel: float, path: FloatArray
 ) -> None:
@@ -469,7 +456,7 @@ def _rollout_into(
         path[k, 0], path[k, 1], path[k, 2] = _position(p0, v0, va, ramp, tau[k])
 
 
-@_inline
+@jit_inline
 def _ramp(v0: FloatArray, va: FloatArray, accel: float) -> tuple[float, float, float, float, float]:
     """(dv, the ramp's duration, half the acceleration per unit dv) of actions eq. 2."""
     dvx, dvy, dvz = va[0] - v0[0], va[1] - v0[1], va[2] - v0[2]
@@ -478,7 +465,7 @@ def _ramp(v0: FloatArray, va: FloatArray, accel: float) -> tuple[float, float, f
     return dvx, dvy, dvz, dv / accel, scale
 
 
-@_inline
+@jit_inline
 def _position(
     p0: FloatArray,
     v0: FloatArray,
@@ -498,7 +485,7 @@ def _position(
     )
 
 
-@_inline
+@jit_inline
 def _later_hazard_bound(
     p0: FloatArray,
     v0: FloatArray,
@@ -523,7 +510,7 @@ def _later_hazard_bound(
     return h * (1.0 - BOUND_SLACK)
 
 
-@_jit
+@jit
 def _extension_loss(
     end: FloatArray,
     goal: FloatArray,
@@ -557,7 +544,7 @@ def _extension_loss(
     return lost / max(kp.extension_n, 1)
 
 
-@_inline
+@jit_inline
 def _in_altitude_band(z: float, z0: float, kp: KernelParams) -> bool:
     """E_a at one sample: not below the floor (above the ceiling) unless no lower (higher)
     than the aircraft is now, within ENVELOPE_SLACK_M (NED: z is down)."""
@@ -566,7 +553,7 @@ def _in_altitude_band(z: float, z0: float, kp: KernelParams) -> bool:
     return not (below or above)
 
 
-@_inline
+@jit_inline
 def _region_hazard(
     x: float,
     y: float,
@@ -586,13 +573,13 @@ def _region_hazard(
     return h, intrusion
 
 
-@_inline
+@jit_inline
 def _goal_term(x: float, y: float, z: float, kp: KernelParams) -> float:
     """Value eq. 1 of the goal, (x, y, z) being the offset from it."""
     return _goal_value(math.sqrt(x * x + y * y + kp.goal_vertical_weight**2 * z * z), kp)
 
 
-@_inline
+@jit_inline
 def _goal_value(d: float, kp: KernelParams) -> float:
     """Value eq. 1 of the goal at (weighted) distance d (m): non-increasing in d."""
     if d >= kp.goal_gate:

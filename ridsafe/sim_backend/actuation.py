@@ -30,7 +30,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ridsafe.sim_backend.dynamics import OctorotorConsts, jit_kernel
+from ridsafe.common.jit import jit
+from ridsafe.sim_backend.dynamics import OctorotorConsts
 from ridsafe.sim_backend.params import OctorotorParams
 
 __all__ = [
@@ -63,7 +64,7 @@ def torque_levels_nm(params: OctorotorParams) -> FloatArray:
     return np.linspace(-params.torque_max_nm, params.torque_max_nm, params.n_torque_levels)
 
 
-@jit_kernel
+@jit
 def _nearest_level(value: float, levels: FloatArray) -> float:
     """The element of sorted ``levels`` closest to ``value`` (ties go to the lower one)."""
     j = np.searchsorted(levels, value)
@@ -75,7 +76,7 @@ def _nearest_level(value: float, levels: FloatArray) -> float:
     return float(hi) if hi - value < value - lo else float(lo)
 
 
-@jit_kernel
+@jit
 def quantise_sigma_delta(value: float, error: float, levels: FloatArray) -> tuple[float, float]:
     """One sigma-delta step: returns (applied level, carried error)."""
     wished = value + error
@@ -83,7 +84,7 @@ def quantise_sigma_delta(value: float, error: float, levels: FloatArray) -> tupl
     return applied, wished - applied
 
 
-@jit_kernel
+@jit
 def actuate_into(
     cmd: FloatArray,
     armed: bool,

@@ -68,6 +68,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from ridsafe.common.jit import jit
 from ridsafe.sim_backend.dynamics import (
     IDX_P,
     IDX_PHI,
@@ -82,7 +83,6 @@ from ridsafe.sim_backend.dynamics import (
     IDX_Y,
     IDX_Z,
     OctorotorConsts,
-    jit_kernel,
     wrap_angle_rad,
 )
 from ridsafe.sim_backend.params import ControllerParams
@@ -176,12 +176,12 @@ class ControllerConsts(NamedTuple):
         )
 
 
-@jit_kernel
+@jit
 def _clip(x: float, lo: float, hi: float) -> float:
     return min(max(x, lo), hi)
 
 
-@jit_kernel
+@jit
 def shaped_speed(d: float, gain: float, decel: float) -> tuple[float, float]:
     """Square-root shaper at distance ``d >= 0``: (speed, d speed / d d) (step 1)."""
     linear_dist = decel / (gain * gain)
@@ -191,7 +191,7 @@ def shaped_speed(d: float, gain: float, decel: float) -> tuple[float, float]:
     return speed, decel / speed
 
 
-@jit_kernel
+@jit
 def _shape_xy(
     ex: float, ey: float, dex: float, dey: float, kc: ControllerConsts
 ) -> tuple[float, float, float, float]:
@@ -211,7 +211,7 @@ def _shape_xy(
     return speed * ux, speed * uy, ax, ay
 
 
-@jit_kernel
+@jit
 def _velocity_command(
     s: FloatArray, p_target: FloatArray, v_target: FloatArray, mode: int, kc: ControllerConsts
 ) -> tuple[float, float, float, float, float, float, bool, bool]:
@@ -239,7 +239,7 @@ def _velocity_command(
     return vx, vy, vz_clipped, ax, ay, az, xy_limited, z_limited
 
 
-@jit_kernel
+@jit
 def _integrate(
     integ: FloatArray,
     ex: float,
@@ -264,7 +264,7 @@ def _integrate(
         )
 
 
-@jit_kernel
+@jit
 def _accel_command(
     s: FloatArray,
     v_cmd: tuple[float, float, float],
@@ -293,7 +293,7 @@ def _accel_command(
     return ax, ay, az
 
 
-@jit_kernel
+@jit
 def _attitude_and_thrust(
     s: FloatArray,
     ax: float,
@@ -321,7 +321,7 @@ def _attitude_and_thrust(
     return phi_d, theta_d, thrust
 
 
-@jit_kernel
+@jit
 def _body_rate_command(
     s: FloatArray,
     phi_d: float,
@@ -352,7 +352,7 @@ def _body_rate_command(
     )
 
 
-@jit_kernel
+@jit
 def _torques(
     s: FloatArray, p_d: float, q_d: float, r_d: float, kc: ControllerConsts, ko: OctorotorConsts
 ) -> tuple[float, float, float]:
@@ -368,7 +368,7 @@ def _torques(
     return tau_phi, tau_theta, tau_psi
 
 
-@jit_kernel
+@jit
 def control_into(
     s: FloatArray,
     p_target: FloatArray,

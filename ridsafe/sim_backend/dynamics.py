@@ -49,13 +49,12 @@ Two implementations: numba kernels (``*_into`` per vehicle; :func:`derivative` a
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any, NamedTuple, TypeVar, cast
+from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from ridsafe.common.jit import jit
 from ridsafe.sim_backend.params import OctorotorParams
 
 __all__ = [
@@ -79,23 +78,12 @@ __all__ = [
     "OctorotorConsts",
     "derivative",
     "derivative_reference",
-    "jit_kernel",
     "rk4_step",
     "rk4_step_reference",
     "wrap_angle_rad",
 ]
 
 FloatArray = NDArray[np.float64]
-_F = TypeVar("_F", bound=Callable[..., Any])
-
-
-def jit_kernel(fn: _F) -> _F:
-    """``numba.njit(cache=True)`` with the signature kept for mypy; every sim kernel uses it.
-
-    numba's on-disk cache does not notice edits in *other* modules a kernel calls: after
-    editing one kernel module, delete ``ridsafe/sim_backend/__pycache__/*.nb[ci]``.
-    """
-    return cast(_F, njit(cache=True)(fn))
 
 
 STATE_SIZE = 12
@@ -137,13 +125,13 @@ class OctorotorConsts(NamedTuple):
         )
 
 
-@jit_kernel
+@jit
 def wrap_angle_rad(a: float) -> float:
     """Wrap an angle to (-pi, pi]."""
     return math.pi - ((math.pi - a) % (2.0 * math.pi))
 
 
-@jit_kernel
+@jit
 def derivative_into(
     s: FloatArray,
     thrust_n: float,
@@ -174,7 +162,7 @@ def derivative_into(
     out[IDX_R] = (ixx - iyy) / izz * p * q + arm / izz * tau_psi
 
 
-@jit_kernel
+@jit
 def rk4_step_into(
     s: FloatArray,
     thrust_n: float,
@@ -202,7 +190,7 @@ def rk4_step_into(
     s[IDX_PSI] = wrap_angle_rad(s[IDX_PSI])
 
 
-@jit_kernel
+@jit
 def ground_contact_into(s: FloatArray) -> None:
     """Ground contact at z = 0 for one vehicle, in place (see the module docstring)."""
     if s[IDX_Z] > 0.0:
@@ -218,7 +206,7 @@ def ground_contact_into(s: FloatArray) -> None:
         s[j] = 0.0
 
 
-@jit_kernel
+@jit
 def _derivative_all(
     state: FloatArray, thrust_n: FloatArray, torque_nm: FloatArray, k: OctorotorConsts
 ) -> FloatArray:
@@ -229,7 +217,7 @@ def _derivative_all(
     return out
 
 
-@jit_kernel
+@jit
 def _rk4_step_all(
     state: FloatArray,
     thrust_n: FloatArray,

@@ -19,6 +19,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ridsafe.common.jit import jit
 from ridsafe.sim_backend.actuation import (
     CMD_THRUST,
     CMD_TORQUE,
@@ -41,7 +42,6 @@ from ridsafe.sim_backend.dynamics import (
     VEL_ENU,
     OctorotorConsts,
     ground_contact_into,
-    jit_kernel,
     rk4_step_into,
     wrap_angle_rad,
 )
@@ -58,7 +58,7 @@ ON_GROUND_HEIGHT_M = 0.05
 ON_GROUND_SPEED_M_S = 0.1
 
 
-@jit_kernel
+@jit
 def _advance_kernel(
     state: FloatArray,
     memory: FloatArray,

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ridsafe.gcs.jit import jit
+from ridsafe.common.jit import jit
 
 FloatArray = NDArray[np.float64]
 

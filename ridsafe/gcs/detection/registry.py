@@ -12,7 +12,7 @@ How to add a detector (one new module plus one line here):
    ``observe(claim) -> tuple[DetectorResult, ...]`` (one result per test it runs: statistic,
    threshold, decision), and a constructor ``(uas_id, cfg: PipelineConfig) -> instance``
    (a classmethod such as ``RssiConsistencyDetectors.for_transmitter``). A compiled kernel,
-   if it needs one, goes beside it as ``<name>_kernels.py`` (``ridsafe.gcs.jit``).
+   if it needs one, goes beside it as ``<name>_kernels.py`` (``ridsafe.common.jit``).
 2. Add ``"<name>": <Class>.for_transmitter`` to ``DETECTORS`` below.
 
 A result names its test by a ``RidsafeDetector`` id: alerts carry it to the companions

@@ -14,8 +14,8 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from ridsafe.common.jit import jit
 from ridsafe.common.pathloss import DB_PER_LN
-from ridsafe.gcs.jit import jit
 
 FloatArray = NDArray[np.float64]
 

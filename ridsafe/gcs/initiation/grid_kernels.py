@@ -8,7 +8,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from ridsafe.gcs.jit import jit_fastmath
+from ridsafe.common.jit import jit_fastmath
 
 FloatArray = NDArray[np.float64]
 

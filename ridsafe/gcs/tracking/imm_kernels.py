@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ridsafe.gcs.jit import jit
+from ridsafe.common.jit import jit
 
 FloatArray = NDArray[np.float64]
 IndexArray = NDArray[np.int64]
