@@ -27,14 +27,23 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ridsafe.companion.planner_api import Vec3
 from ridsafe.companion.planner_config import PlannerConfig
 
-__all__ = ["ActionSet", "build_action_set", "clip_to_envelope", "heading_to_rad", "rollout"]
+__all__ = [
+    "ActionSet",
+    "build_action_set",
+    "clip_to_envelope",
+    "heading_to_rad",
+    "rollout",
+    "state_at",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -85,24 +94,56 @@ def heading_to_rad(p_ned_m: ArrayLike, goal_ned_m: ArrayLike) -> float:
 def build_action_set(cfg: PlannerConfig, goal_heading_rad: float) -> ActionSet:
     """All actions of one decision: headings x speeds x flight-path angles, climb, descend,
     hover."""
+    template = _template(cfg)
+    _, horizontal, _, _, _ = _primitives(cfg)
+    relative = (goal_heading_rad + template.offsets_rad)[:, None]  # (H_rel, 1)
+    first, last = template.n_absolute, len(template.speeds) - 3  # the goal-relative rows
+    velocity = template.velocity.copy()
+    velocity[first:last, 0] = (horizontal * np.cos(relative)).ravel()
+    velocity[first:last, 1] = (horizontal * np.sin(relative)).ravel()
+    psi = template.psi.copy()
+    psi[first:last] = np.repeat(relative[:, 0], horizontal.shape[0])
+    psi[last:] = goal_heading_rad
+    turn = np.zeros(psi.shape[0])
+    turn[:last] = np.sin(psi[:last] - goal_heading_rad)
+    return ActionSet(psi, template.speeds, template.gammas, velocity, turn)
+
+
+@dataclass(frozen=True)
+class _Template:
+    """What of an action set does not depend on the goal: every row of the absolute headings,
+    the last three (climb, descend, hover), every action's V and gamma; the goal-relative
+    headings' offsets (rad). ``n_absolute``: rows of the absolute headings (they come first)."""
+
+    n_absolute: int
+    offsets_rad: FloatArray
+    velocity: FloatArray
+    psi: FloatArray
+    speeds: FloatArray
+    gammas: FloatArray
+
+
+@functools.lru_cache(maxsize=16)
+def _template(cfg: PlannerConfig) -> _Template:
     absolute_rad, horizontal, down, speed, gamma = _primitives(cfg)
-    relative = goal_heading_rad + np.radians(np.asarray(cfg.goal_heading_offsets_deg))
-    headings = np.concatenate([absolute_rad, relative])[:, None]  # (H, 1)
-    n = headings.shape[0] * horizontal.shape[0] + 3
-    velocity = np.empty((n, 3))
-    velocity[:-3, 0] = (horizontal * np.cos(headings)).ravel()
-    velocity[:-3, 1] = (horizontal * np.sin(headings)).ravel()
-    velocity[:-3, 2] = np.broadcast_to(down, (headings.shape[0], down.shape[0])).ravel()
+    offsets_rad = np.radians(np.asarray(cfg.goal_heading_offsets_deg, dtype=np.float64))
+    n_headings = absolute_rad.shape[0] + offsets_rad.shape[0]
+    n_absolute = absolute_rad.shape[0] * horizontal.shape[0]
+    n = n_headings * horizontal.shape[0] + 3
+    absolute = absolute_rad[:, None]
+    velocity = np.zeros((n, 3))
+    velocity[:n_absolute, 0] = (horizontal * np.cos(absolute)).ravel()
+    velocity[:n_absolute, 1] = (horizontal * np.sin(absolute)).ravel()
+    velocity[:-3, 2] = np.broadcast_to(down, (n_headings, down.shape[0])).ravel()
     velocity[-3:] = ((0.0, 0.0, -cfg.max_climb_m_s), (0.0, 0.0, cfg.max_descent_m_s), (0, 0, 0))
-    psi = np.empty(n)
-    psi[:-3] = np.repeat(headings[:, 0], horizontal.shape[0])
-    psi[-3:] = goal_heading_rad
+    psi = np.zeros(n)
+    psi[:n_absolute] = np.repeat(absolute_rad, horizontal.shape[0])
     vertical_speeds = (cfg.max_climb_m_s, cfg.max_descent_m_s, 0.0)
-    speeds = np.concatenate([np.tile(speed, headings.shape[0]), vertical_speeds])
-    gammas = np.concatenate([np.tile(gamma, headings.shape[0]), (np.pi / 2, -np.pi / 2, 0.0)])
-    turn = np.zeros(n)
-    turn[:-3] = np.sin(psi[:-3] - goal_heading_rad)
-    return ActionSet(psi, speeds, gammas, velocity, turn)
+    speeds = np.concatenate([np.tile(speed, n_headings), vertical_speeds])
+    gammas = np.concatenate([np.tile(gamma, n_headings), (np.pi / 2, -np.pi / 2, 0.0)])
+    for part in (offsets_rad, velocity, psi, speeds, gammas):
+        part.setflags(write=False)
+    return _Template(n_absolute, offsets_rad, velocity, psi, speeds, gammas)
 
 
 @functools.lru_cache(maxsize=16)
@@ -143,6 +184,29 @@ def rollout(
     p = p0 + v0 * t_in + 0.5 * accel_m_s2 * u * t_in**2 + va * (tau - t_in)
     v = v0 + accel_m_s2 * u * t_in
     return p, v
+
+
+def state_at(
+    p0_m: Sequence[float],
+    v0_m_s: Sequence[float],
+    va_m_s: Sequence[float],
+    tau_s: float,
+    accel_m_s2: float,
+) -> tuple[Vec3, Vec3]:
+    """Eq. (2) at one time ``tau_s``: position and velocity, as ``rollout`` gives them bit for
+    bit (the same operations in the same order), without the arrays (the planner's setpoint:
+    two times, every decision)."""
+    dv = [va - v for va, v in zip(va_m_s, v0_m_s, strict=True)]
+    dv_norm = math.sqrt(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2])
+    t_in = min(tau_s, dv_norm / accel_m_s2)  # time spent ramping
+    u = [d / dv_norm for d in dv] if dv_norm > _TINY_M else [0.0, 0.0, 0.0]
+    half_a = 0.5 * accel_m_s2
+    p = tuple(
+        p0 + v0 * t_in + half_a * ui * (t_in * t_in) + va * (tau_s - t_in)
+        for p0, v0, ui, va in zip(p0_m, v0_m_s, u, va_m_s, strict=True)
+    )
+    v = tuple(v0 + accel_m_s2 * ui * t_in for v0, ui in zip(v0_m_s, u, strict=True))
+    return (p[0], p[1], p[2]), (v[0], v[1], v[2])
 
 
 def clip_to_envelope(v_ned_m_s: ArrayLike, cfg: PlannerConfig) -> FloatArray:

@@ -61,7 +61,7 @@ from ridsafe.companion.actions import (
     build_action_set,
     clip_to_envelope,
     heading_to_rad,
-    rollout,
+    state_at,
 )
 from ridsafe.companion.planner_api import (
     Neighbour,
@@ -223,14 +223,16 @@ class FastMdpPlanner:
             return PlannerDecision(_vec(point), (0.0, 0.0, 0.0), status, value, what)
         if stuck and status in (PlannerStatus.CRUISE, PlannerStatus.AVOIDING):
             status = PlannerStatus.STUCK
-        leads = [cfg.target_lead_s, cfg.velocity_lead_s]
-        p_t, v_t = rollout(p0, v0, actions.velocity_ned_m_s[index], leads, cfg.accel_m_s2)
+        p_in, v_in = planner_input.p_ned_m, planner_input.v_ned_m_s
+        va = actions.velocity_ned_m_s[index].tolist()
+        p_t, _ = state_at(p_in, v_in, va, cfg.target_lead_s, cfg.accel_m_s2)
+        _, v_t = state_at(p_in, v_in, va, cfg.velocity_lead_s, cfg.accel_m_s2)
         detail = (
             f"{actions.describe(index)}; {len(scene.nb_ids)} aircraft, {len(scene.rg_ids)} "
             f"regions; closest predicted {scores.min_separation_m[index]:.0f} m"
         )
-        v_target = clip_to_envelope(v_t[1], cfg)
-        return PlannerDecision(_vec(p_t[0]), _vec(v_target), status, value, detail)
+        v_target = clip_to_envelope(v_t, cfg)
+        return PlannerDecision(p_t, _vec(v_target), status, value, detail)
 
     def _clear_to_approach(self, status: PlannerStatus, scores: RolloutScores, hover: int) -> bool:
         """Fly at the goal itself: nothing in play, or traffic about that keeps at least

@@ -49,6 +49,7 @@ from ridsafe.companion.actions import ActionSet
 from ridsafe.companion.planner_api import Neighbour, Region
 from ridsafe.companion.planner_config import PlannerConfig
 from ridsafe.companion.planner_kernel import KernelParams, score_all, score_bounded
+from ridsafe.companion.scene_kernel import project_neighbours, project_regions
 
 __all__ = ["KernelParams", "RolloutScores", "Scene", "build_scene", "score_actions"]
 
@@ -111,22 +112,25 @@ def build_scene(
     within max(gate, margin) + v_max tau. Callers filter by policy (flagged, stale) first.
     """
     tau, tau_all = _rollout_times(cfg)  # (K,); (1 + K + K2,): now, rollout, extension
-    reach = cfg.max_speed_m_s * tau  # (K,)
-    nb_ids, nb_pos = _neighbour_positions(now_s, neighbours, tau)
-    if nb_pos.shape[0]:
-        dist = np.linalg.norm(nb_pos - p0_m, axis=-1)  # (N, K)
-        keep = np.any(dist < cfg.d_safe_m + reach, axis=1)
-        nb_ids = tuple(i for i, k in zip(nb_ids, keep, strict=True) if k)
-        nb_pos = nb_pos[keep]
+    nb_ids, nb_pos = _neighbours_near(now_s, p0_m, neighbours, tau, cfg)
     live = tuple(r for r in regions if r.valid_until_s >= now_s)
     if not live:  # the common case: none of the region arithmetic below
-        no_regions = _region_arrays(now_s, (), tau_all[1:], 0.0)
+        k = tau_all.shape[0] - 1
+        no_regions = np.zeros((0, k, 3)), np.zeros((0, k, 3, 3)), np.zeros((0, k))
         return Scene(tau, nb_ids, nb_pos, (), *no_regions, np.zeros(0), np.zeros(0))
-    center, pinv, sigma = _region_arrays(now_s, live, tau_all, cfg.region_velocity_std_m_s)
     sqrt_chi2 = np.sqrt(np.array([r.chi2_threshold for r in live], dtype=np.float64))
-    delta = p0_m - center  # (R, 1 + K + K2, 3)
-    m = np.einsum("rki,rkij,rkj->rk", delta, pinv, delta)
-    d = sigma * np.maximum(0.0, np.sqrt(np.maximum(m, 0.0)) - sqrt_chi2[:, None])
+    eigen = [_eigen(np.array(r.cov_ned_m2, dtype=np.float64).tobytes()) for r in live]
+    center, pinv, sigma, d = project_regions(
+        np.array([r.center_ned_m for r in live], dtype=np.float64),
+        np.array([r.v_ned_m_s for r in live], dtype=np.float64),
+        np.array([e[0] for e in eigen]),
+        np.array([e[1] for e in eigen]),
+        now_s - np.array([r.t_s for r in live], dtype=np.float64),
+        tau_all,
+        cfg.region_velocity_std_m_s,
+        p0_m,
+        sqrt_chi2,
+    )
     threshold = np.minimum(np.maximum(d[:, 0], MIN_SHIELD_M), cfg.region_margin_m)
     near = max(cfg.region_gate_m, cfg.region_margin_m) + cfg.max_speed_m_s * tau_all[1:]
     keep_r = np.any(d[:, 1:] < near, axis=1)
@@ -153,43 +157,25 @@ def _rollout_times(cfg: PlannerConfig) -> tuple[FloatArray, FloatArray]:
     return tau, tau_all
 
 
-def _neighbour_positions(
-    now_s: float, neighbours: tuple[Neighbour, ...], tau: FloatArray
+def _neighbours_near(
+    now_s: float,
+    p0_m: FloatArray,
+    neighbours: tuple[Neighbour, ...],
+    tau: FloatArray,
+    cfg: PlannerConfig,
 ) -> tuple[tuple[str, ...], FloatArray]:
-    """q_j + w_j (now - t_j + tau_k) for every neighbour: ``(N, K, 3)``."""
+    """The neighbours that may matter and their positions q_j + w_j (now - t_j + tau_k) :
+    ``(N, K, 3)``."""
     if not neighbours:
         return (), np.zeros((0, tau.shape[0], 3))
-    q = np.array([n.p_ned_m for n in neighbours], dtype=np.float64)
-    w = np.array([n.v_ned_m_s for n in neighbours], dtype=np.float64)
-    age = now_s - np.array([n.t_s for n in neighbours], dtype=np.float64)
-    horizon = age[:, None] + tau[None, :]  # (N, K)
-    pos: FloatArray = q[:, None, :] + w[:, None, :] * horizon[..., None]
-    return tuple(n.uas_id for n in neighbours), pos
-
-
-def _region_arrays(
-    now_s: float, regions: tuple[Region, ...], tau: FloatArray, sigma_v: float
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Centres (R, K, 3), inverse covariances (R, K, 3, 3), sqrt(lambda_min) (R, K), value eq. 5.
-
-    Eigenvalues below MIN_EIGENVALUE_M2 are raised to it (a malformed, indefinite covariance
-    still yields a sane ellipsoid).
-    """
-    k = tau.shape[0]
-    if not regions:
-        return np.zeros((0, k, 3)), np.zeros((0, k, 3, 3)), np.zeros((0, k))
-    c = np.array([r.center_ned_m for r in regions], dtype=np.float64)
-    v = np.array([r.v_ned_m_s for r in regions], dtype=np.float64)
-    eigen = [_eigen(np.array(r.cov_ned_m2, dtype=np.float64).tobytes()) for r in regions]
-    lam = np.array([e[0] for e in eigen])  # (R, 3)
-    vec = np.array([e[1] for e in eigen])  # (R, 3, 3)
-    horizon = (now_s - np.array([r.t_s for r in regions]))[:, None] + tau[None, :]  # (R, K)
-    horizon = np.maximum(horizon, 0.0)
-    center: FloatArray = c[:, None, :] + v[:, None, :] * horizon[..., None]
-    lam_k = lam[:, None, :] + ((sigma_v * horizon) ** 2)[..., None]  # (R, K, 3)
-    pinv: FloatArray = np.einsum("rij,rkj,rlj->rkil", vec, 1.0 / lam_k, vec)
-    sigma_min: FloatArray = np.sqrt(lam_k.min(axis=-1))
-    return center, pinv, sigma_min
+    rows = np.array([(*n.p_ned_m, *n.v_ned_m_s, n.t_s) for n in neighbours], dtype=np.float64)
+    age = now_s - rows[:, 6]
+    pos, keep = project_neighbours(
+        rows[:, 0:3], rows[:, 3:6], age, tau, p0_m, cfg.d_safe_m, cfg.max_speed_m_s
+    )
+    if keep.all():
+        return tuple(n.uas_id for n in neighbours), pos
+    return tuple(n.uas_id for n, k in zip(neighbours, keep, strict=True) if k), pos[keep]
 
 
 @functools.lru_cache(maxsize=256)

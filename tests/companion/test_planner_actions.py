@@ -10,7 +10,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ridsafe.companion.actions import build_action_set, clip_to_envelope, heading_to_rad, rollout
+from ridsafe.companion.actions import (
+    build_action_set,
+    clip_to_envelope,
+    heading_to_rad,
+    rollout,
+    state_at,
+)
 from ridsafe.companion.planner_config import PlannerConfig
 
 CFG = PlannerConfig()
@@ -91,6 +97,26 @@ def test_rollout_speed_never_exceeds_its_ends(
     integral = np.cumsum(0.5e-3 * (v_fine[1:] + v_fine[:-1]), axis=0)
     np.testing.assert_allclose(p_fine[1:], integral, atol=accel * 1e-6)
     np.testing.assert_allclose(p, p_fine[::250], atol=1e-9)
+
+
+@settings(max_examples=300, deadline=None)
+@given(VEC, VEC, st.floats(0.0, 3.0), st.floats(0.5, 6.0))
+def test_state_at_one_time_is_the_rollout_bit_for_bit(
+    v0: tuple[float, float, float], va: tuple[float, float, float], tau_s: float, accel: float
+) -> None:
+    p0 = (12.5, -3.25, -40.0)
+    p, v = state_at(p0, v0, va, tau_s, accel)
+    want_p, want_v = rollout(p0, v0, va, [tau_s], accel)
+    assert p == tuple(want_p[0].tolist()) and v == tuple(want_v[0].tolist())
+
+
+def test_the_action_set_of_one_goal_is_not_changed_by_the_next() -> None:
+    first = build_action_set(CFG, 0.3)
+    kept = first.velocity_ned_m_s.copy(), first.heading_rad.copy(), first.turn_right.copy()
+    build_action_set(CFG, -2.0)
+    assert np.array_equal(first.velocity_ned_m_s, kept[0])
+    assert np.array_equal(first.heading_rad, kept[1]) and np.array_equal(first.turn_right, kept[2])
+    assert not first.speed_m_s.flags.writeable  # shared between decisions: read-only
 
 
 def test_clip_to_envelope() -> None:
