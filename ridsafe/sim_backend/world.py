@@ -318,10 +318,12 @@ class SimBackend:
 
     def _samples(self) -> list[VehicleSample]:
         state = self.fleet.state
-        on_ground = self.fleet.on_ground
+        positions, velocities = state[:, POS_ENU], state[:, VEL_ENU]
         return [
-            VehicleSample(state[i, POS_ENU], state[i, VEL_ENU], float(state[i, IDX_PSI]), bool(g))
-            for i, g in enumerate(on_ground)
+            VehicleSample(positions[i], velocities[i], psi, on_ground)
+            for i, (psi, on_ground) in enumerate(
+                zip(state[:, IDX_PSI].tolist(), self.fleet.on_ground.tolist(), strict=True)
+            )
         ]
 
     def _route(self, endpoint: _Port, received: codec.Received, sample: VehicleSample) -> None:
