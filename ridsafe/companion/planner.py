@@ -162,6 +162,21 @@ def choose_action(
     return index, PlannerStatus.NO_SAFE_ACTION, float(total[index])
 
 
+#: One neighbour and one region that every rollout meets: what ``warm_up`` projects.
+_WARM_UP_NEIGHBOURS = (Neighbour("warm-up", (50.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, False),)
+_WARM_UP_REGIONS = (
+    Region(
+        "warm-up",
+        (80.0, 0.0, 0.0),
+        ((100.0, 0.0, 0.0), (0.0, 100.0, 0.0), (0.0, 0.0, 100.0)),
+        7.8,
+        (0.0, 0.0, 0.0),
+        0.0,
+        1.0,
+    ),
+)
+
+
 def _finite(*vectors: Vec3) -> bool:
     return all(map(math.isfinite, itertools.chain.from_iterable(vectors)))
 
@@ -186,6 +201,7 @@ class FastMdpPlanner:
         the first decision: about 0.2 s from the cache, several seconds cold. Leaves the
         planner's memory (arrival latch, watchdog) untouched."""
         cfg, origin = self.config, np.zeros(3)
+        build_scene(0.0, origin, _WARM_UP_NEIGHBOURS, _WARM_UP_REGIONS, cfg)  # the scene kernels
         scene = build_scene(0.0, origin, (), (), cfg)
         actions = build_action_set(cfg, 0.0)
         kp, bias = self._kernel_params, cfg.right_turn_bias

@@ -169,10 +169,7 @@ def _neighbours_near(
     if not neighbours:
         return (), np.zeros((0, tau.shape[0], 3))
     rows = np.array([(*n.p_ned_m, *n.v_ned_m_s, n.t_s) for n in neighbours], dtype=np.float64)
-    age = now_s - rows[:, 6]
-    pos, keep = project_neighbours(
-        rows[:, 0:3], rows[:, 3:6], age, tau, p0_m, cfg.d_safe_m, cfg.max_speed_m_s
-    )
+    pos, keep = project_neighbours(rows, now_s, tau, p0_m, cfg.d_safe_m, cfg.max_speed_m_s)
     if keep.all():
         return tuple(n.uas_id for n in neighbours), pos
     return tuple(n.uas_id for n, k in zip(neighbours, keep, strict=True) if k), pos[keep]

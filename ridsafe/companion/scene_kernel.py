@@ -23,25 +23,26 @@ FloatArray = NDArray[np.float64]
 
 @jit
 def project_neighbours(
-    q: FloatArray,
-    w: FloatArray,
-    age_s: FloatArray,
+    rows: FloatArray,
+    now_s: float,
     tau_s: FloatArray,
     p0: FloatArray,
     d_safe_m: float,
     max_speed_m_s: float,
 ) -> tuple[FloatArray, NDArray[np.bool_]]:
-    """Neighbour j at q_j + w_j (age_j + tau_k) : (N, K, 3), and whether it comes within
+    """Neighbour j (``rows[j]``: position q_j, velocity w_j, receive time t_j) at
+    q_j + w_j ((now - t_j) + tau_k) : (N, K, 3), and whether it comes within
     d_safe + v_max tau_k of p0 at some k : (N,)."""
-    n, n_k = q.shape[0], tau_s.shape[0]
+    n, n_k = rows.shape[0], tau_s.shape[0]
     pos = np.empty((n, n_k, 3))
     keep = np.zeros(n, dtype=np.bool_)
     for j in range(n):
+        age = now_s - rows[j, 6]
         for k in range(n_k):
-            horizon = age_s[j] + tau_s[k]
-            x = q[j, 0] + w[j, 0] * horizon
-            y = q[j, 1] + w[j, 1] * horizon
-            z = q[j, 2] + w[j, 2] * horizon
+            horizon = age + tau_s[k]
+            x = rows[j, 0] + rows[j, 3] * horizon
+            y = rows[j, 1] + rows[j, 4] * horizon
+            z = rows[j, 2] + rows[j, 5] * horizon
             pos[j, k, 0], pos[j, k, 1], pos[j, k, 2] = x, y, z
             dx, dy, dz = x - p0[0], y - p0[1], z - p0[2]
             if math.sqrt(dx * dx + dy * dy + dz * dz) < d_safe_m + max_speed_m_s * tau_s[k]:

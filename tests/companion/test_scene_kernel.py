@@ -59,16 +59,18 @@ def test_neighbours_projected_bit_for_bit(seed: int) -> None:
     w = rng.uniform(-9.0, 9.0, (n, 3)) * [1, 1, 0.2]
     age = rng.uniform(0.0, 2.0, n)
     p0 = rng.uniform(-100.0, 100.0, 3)
-    want_pos, want_keep = _neighbours_by_arrays(q, w, age, p0)
-    pos, keep = project_neighbours(q, w, age, TAU, p0, CFG.d_safe_m, CFG.max_speed_m_s)
+    now_s = 50.0
+    rows = np.concatenate([q, w, (now_s - age)[:, None]], axis=1)
+    want_pos, want_keep = _neighbours_by_arrays(q, w, now_s - rows[:, 6], p0)
+    pos, keep = project_neighbours(rows, now_s, TAU, p0, CFG.d_safe_m, CFG.max_speed_m_s)
     assert np.array_equal(_bits(pos), _bits(want_pos))
     assert np.array_equal(keep, want_keep)
 
 
 def test_neighbours_kept_and_dropped_both_occur() -> None:
-    q = np.array([[50.0, 0.0, -60.0], [5000.0, 0.0, -60.0]])
-    w, age, p0 = np.zeros((2, 3)), np.zeros(2), np.array([0.0, 0.0, -60.0])
-    _, keep = project_neighbours(q, w, age, TAU, p0, CFG.d_safe_m, CFG.max_speed_m_s)
+    rows = np.array([[50.0, 0.0, -60.0, 0, 0, 0, 0.0], [5000.0, 0.0, -60.0, 0, 0, 0, 0.0]])
+    p0 = np.array([0.0, 0.0, -60.0])
+    _, keep = project_neighbours(rows, 0.0, TAU, p0, CFG.d_safe_m, CFG.max_speed_m_s)
     assert keep.tolist() == [True, False]
 
 
