@@ -95,7 +95,7 @@ def build_action_set(cfg: PlannerConfig, goal_heading_rad: float) -> ActionSet:
     """All actions of one decision: headings x speeds x flight-path angles, climb, descend,
     hover."""
     template = _template(cfg)
-    _, horizontal, _, _, _ = _primitives(cfg)
+    horizontal = template.horizontal_m_s
     relative = (goal_heading_rad + template.offsets_rad)[:, None]  # (H_rel, 1)
     first, last = template.n_absolute, len(template.speeds) - 3  # the goal-relative rows
     velocity = template.velocity.copy()
@@ -113,10 +113,12 @@ def build_action_set(cfg: PlannerConfig, goal_heading_rad: float) -> ActionSet:
 class _Template:
     """What of an action set does not depend on the goal: every row of the absolute headings,
     the last three (climb, descend, hover), every action's V and gamma; the goal-relative
-    headings' offsets (rad). ``n_absolute``: rows of the absolute headings (they come first)."""
+    headings' offsets (rad) and the horizontal speed V cos gamma of each (speed, angle) pair.
+    ``n_absolute``: rows of the absolute headings (they come first)."""
 
     n_absolute: int
     offsets_rad: FloatArray
+    horizontal_m_s: FloatArray
     velocity: FloatArray
     psi: FloatArray
     speeds: FloatArray
@@ -143,7 +145,7 @@ def _template(cfg: PlannerConfig) -> _Template:
     gammas = np.concatenate([np.tile(gamma, n_headings), (np.pi / 2, -np.pi / 2, 0.0)])
     for part in (offsets_rad, velocity, psi, speeds, gammas):
         part.setflags(write=False)
-    return _Template(n_absolute, offsets_rad, velocity, psi, speeds, gammas)
+    return _Template(n_absolute, offsets_rad, horizontal, velocity, psi, speeds, gammas)
 
 
 @functools.lru_cache(maxsize=16)
