@@ -2,7 +2,8 @@
 
 Each subcommand module (``ridsafe.tools.cli.<name>_cmd``) exposes ``register(subparsers) ->
 None``, which adds its parser and sets ``func`` (``Callable[[argparse.Namespace], int]``) as the
-parser default. Subcommand modules are imported only when the parser is built.
+parser default. Subcommand modules are imported only when the parser is built, and only the
+named one when the command line names one.
 """
 
 from __future__ import annotations
@@ -21,21 +22,24 @@ import logging  # noqa: E402
 import sys  # noqa: E402
 from collections.abc import Sequence  # noqa: E402
 
-# Subcommand modules, in the order ``ridsafe --help`` lists them.
-_SUBCOMMAND_MODULES: tuple[str, ...] = (
-    "ridsafe.tools.cli.run_cmd",
-    "ridsafe.tools.cli.sweep_cmd",
-    "ridsafe.tools.cli.report_cmd",
-    "ridsafe.tools.cli.sim_cmd",
-    "ridsafe.tools.cli.gcs_cmd",
-    "ridsafe.tools.cli.companion_cmd",
-    "ridsafe.tools.cli.metrics_cmd",
-    "ridsafe.tools.cli.odid_cmd",
-    "ridsafe.tools.cli.demo_cmd",
-)
+# Subcommand names and their modules, in the order ``ridsafe --help`` lists them.
+_SUBCOMMAND_MODULES: dict[str, str] = {
+    "run": "ridsafe.tools.cli.run_cmd",
+    "sweep": "ridsafe.tools.cli.sweep_cmd",
+    "report": "ridsafe.tools.cli.report_cmd",
+    "sim": "ridsafe.tools.cli.sim_cmd",
+    "gcs": "ridsafe.tools.cli.gcs_cmd",
+    "companion": "ridsafe.tools.cli.companion_cmd",
+    "metrics": "ridsafe.tools.cli.metrics_cmd",
+    "odid": "ridsafe.tools.cli.odid_cmd",
+    "demo": "ridsafe.tools.cli.demo_cmd",
+}
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The ``ridsafe`` parser with every subcommand; given a subcommand's name, with that one
+    alone, whose module alone is then imported (a live run's companion process need not
+    import the GCS, the sweep and the report: about a second each process)."""
     parser = argparse.ArgumentParser(
         prog="ridsafe",
         description="Spoofing-aware Remote ID trajectory planning for small drones.",
@@ -44,9 +48,21 @@ def build_parser() -> argparse.ArgumentParser:
         "-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)"
     )
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for module_name in _SUBCOMMAND_MODULES:
-        importlib.import_module(module_name).register(subparsers)
+    names = [command] if command in _SUBCOMMAND_MODULES else list(_SUBCOMMAND_MODULES)
+    for name in names:
+        importlib.import_module(_SUBCOMMAND_MODULES[name]).register(subparsers)
     return parser
+
+
+def _command_of(argv: Sequence[str]) -> str | None:
+    """The subcommand ``argv`` names (its first word that is not an option; the only global
+    option, ``-v``, takes no value), or None where it asks for the global help first."""
+    for arg in argv:
+        if arg in ("-h", "--help"):
+            return None
+        if not arg.startswith("-"):
+            return arg
+    return None
 
 
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report a Ctrl-C
@@ -54,7 +70,8 @@ EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, as a shell reports a writer whose reade
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else argv
+    parser = build_parser(_command_of(argv))
     args = parser.parse_args(argv)
     level = {0: logging.WARNING, 1: logging.INFO}.get(args.verbose, logging.DEBUG)
     logging.basicConfig(level=level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING
 
 from ridsafe.common import codec
 from ridsafe.common.heard import RidFrameDecoder
@@ -21,12 +22,13 @@ from ridsafe.common.logsink import LogSink
 from ridsafe.companion.companion import Companion
 from ridsafe.companion.config import CompanionSpec
 from ridsafe.companion.planners import PlannerSettings, make_planner
-from ridsafe.gcs.calibration.pipeline import make_pipeline
-from ridsafe.gcs.config import ClockSource
-from ridsafe.gcs.gcs import Gcs
-from ridsafe.gcs.pipeline_api import GcsPipeline
 from ridsafe.sim_backend.world import EndpointKind, SimBackend
 from ridsafe.tools.run.scenario import ScenarioFile
+
+if TYPE_CHECKING:  # the GCS is imported where it is made: a companion's process never is
+    from ridsafe.gcs.config import ClockSource
+    from ridsafe.gcs.gcs import Gcs
+    from ridsafe.gcs.pipeline_api import GcsPipeline
 
 __all__ = [
     "LOCKSTEP_SIM_ENDPOINTS",
@@ -134,6 +136,8 @@ def make_companions(
 
 def make_estimation_pipeline(loaded: ScenarioFile) -> GcsPipeline:
     """The GCS's estimation pipeline, configured by the file's ``pipeline`` section."""
+    from ridsafe.gcs.calibration.pipeline import make_pipeline  # noqa: PLC0415 (see above)
+
     return make_pipeline(loaded.pipeline)
 
 
@@ -144,6 +148,8 @@ def make_gcs(
     clock: ClockSource | None = None,
 ) -> Gcs:
     """The GCS of the scenario; ``clock`` replaces ``gcs.clock`` when given."""
+    from ridsafe.gcs.gcs import Gcs  # noqa: PLC0415 (see the imports)
+
     config = loaded.gcs if clock is None else dataclasses.replace(loaded.gcs, clock=clock)
     pipeline = make_estimation_pipeline(loaded)
     return Gcs(config, loaded.scenario.origin, pipeline, sink, signing)

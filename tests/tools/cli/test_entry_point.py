@@ -39,3 +39,46 @@ def test_python_dash_m_runs_the_same_command() -> None:
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     assert all(name in done.stdout for name in SUBCOMMANDS)
+
+
+def test_a_named_command_registers_that_command_alone() -> None:
+    parser = cli_main.build_parser("odid")
+    (subparsers,) = [a for a in parser._actions if a.dest == "command"]
+    assert list(subparsers.choices) == ["odid"]  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("argv", "command"),
+    [
+        (["run", "--help"], "run"),
+        (["-v", "-v", "companion", "--sysid", "3"], "companion"),
+        (["-h", "run"], None),  # the global help first
+        (["-v"], None),
+        ([], None),
+    ],
+)
+def test_the_command_a_command_line_names(argv: list[str], command: str | None) -> None:
+    assert cli_main._command_of(argv) == command
+
+
+def test_a_companion_process_imports_neither_the_gcs_nor_the_other_commands() -> None:
+    """What a live run's per-aircraft process loads before it flies (each of them)."""
+    probe = (
+        "import sys\n"
+        "from ridsafe.tools.cli.entry_point import main\n"
+        "try:\n"
+        "    main(['companion', '--help'])\n"
+        "except SystemExit:\n"
+        "    pass\n"
+        "heavy = ('ridsafe.gcs.gcs', 'ridsafe.gcs.calibration.pipeline', 'scipy.stats',\n"
+        "    'ridsafe.tools.cli.run_cmd', 'ridsafe.tools.cli.sweep_cmd')\n"
+        "loaded = [m for m in heavy if m in sys.modules]\n"
+        "print(loaded, file=sys.stderr)\n"
+        "sys.exit(1 if loaded else 0)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", probe],
+        cwd=ROOT, capture_output=True, text=True, check=False, timeout=120,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert "usage: ridsafe companion" in done.stdout
