@@ -25,7 +25,8 @@ from ridsafe.companion.planners import PlannerSettings, make_planner
 from ridsafe.sim_backend.world import EndpointKind, SimBackend
 from ridsafe.tools.run.scenario import ScenarioFile
 
-if TYPE_CHECKING:  # the GCS is imported where it is made: a companion's process never is
+# The GCS is imported where one is made: a companion's or the sim's process never loads it.
+if TYPE_CHECKING:
     from ridsafe.gcs.config import ClockSource
     from ridsafe.gcs.gcs import Gcs
     from ridsafe.gcs.pipeline_api import GcsPipeline
