@@ -83,11 +83,17 @@ class SensitivityFloor:
         return -math.inf if self._weakest_dbm == math.inf else self._weakest_dbm
 
     def observe(self, claims: Sequence[ObservedClaim]) -> None:
-        for claim in claims:
-            if claim.rssi_dbm.shape[0]:
-                weakest = float(np.min(claim.rssi_dbm))
-                if math.isfinite(weakest):
-                    self._weakest_dbm = min(self._weakest_dbm, weakest)
+        """Take the weakest RSSI of each claim whose weakest is finite (a claim holding a
+        NaN or an infinity teaches nothing), all claims in one pass."""
+        heard = [claim.rssi_dbm for claim in claims if claim.rssi_dbm.shape[0]]
+        if not heard:
+            return
+        starts = np.zeros(len(heard), dtype=np.intp)
+        np.cumsum([rssi.shape[0] for rssi in heard[:-1]], out=starts[1:])
+        weakest = np.minimum.reduceat(np.concatenate(heard), starts)  # NaN stays NaN
+        weakest = weakest[np.isfinite(weakest)]
+        if weakest.shape[0]:
+            self._weakest_dbm = min(self._weakest_dbm, float(weakest.min()))
 
 
 def expected_lift_db(mean_dbm: FloatArray, floor_dbm: float, sigma_db: float) -> FloatArray:

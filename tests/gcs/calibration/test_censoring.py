@@ -144,6 +144,20 @@ def test_the_floor_is_the_weakest_rssi_reported() -> None:
     assert floor.dbm == min(float(c.rssi_dbm.min()) for c in claims if c.n_receivers)
 
 
+def test_a_claim_with_a_non_finite_rssi_leaves_the_floor_to_the_others() -> None:
+    claims, _, _ = _heard_claims(9, 20)
+    heard = [c for c in claims if c.n_receivers >= 2]
+    weakest = min(heard, key=lambda c: float(c.rssi_dbm.min()))
+    rssi = weakest.rssi_dbm.copy()
+    rssi[int(np.argmax(rssi))] = np.nan  # its weakest finite RSSI is still the fleet's weakest
+    broken = dataclasses.replace(weakest, rssi_dbm=rssi)
+    floor = SensitivityFloor()
+    floor.observe([broken if c is weakest else c for c in claims])
+    others = [c for c in heard if c is not weakest]
+    assert floor.dbm == min(float(c.rssi_dbm.min()) for c in others)
+    assert floor.dbm > float(weakest.rssi_dbm.min())
+
+
 def test_the_pipeline_maps_the_detectors_rssi_less_the_lift_and_the_tracks_without() -> None:
     claims, loss, _ = _heard_claims(10, 30)
     tx, rx, d, rssi, _ = _links(11, 3.0, CUT_DBM)
