@@ -20,6 +20,14 @@ Readers see ``None``; ``numpy.array(values, dtype=float)`` turns it back into Na
 JSON cannot encode at all (a set, an object) raises :class:`RecorderError` naming the topic
 and field. numpy scalars and arrays are accepted and converted (``.item()``/``.tolist()``).
 
+Encoding speed. Records are encoded by ``orjson`` (about eight times the standard library's
+encoder on the run's float-heavy records; at 64 aircraft the log is 250 MB of JSON a run).
+It writes the same values: a number may be spelled differently (``1e-6`` for ``1e-06``),
+which every JSON reader reads as the same float. What it would do differently falls back to
+the standard library's encoder, so nothing else changes: a record whose JSON holds ``null``
+is checked for non-finite numbers (``orjson`` writes them as ``null`` without a word), and a
+value ``orjson`` refuses (an integer beyond 64 bits) is encoded as before.
+
 Derived channels. A :class:`WriterPlugin` sees the records of the topics it names as they are
 logged and writes channels of its own through :class:`DerivedChannels` (after the record that
 caused them). The Foxglove views (``ridsafe.tools.runlog.foxglove_channels``) are one; an
@@ -37,6 +45,7 @@ from pathlib import Path
 from typing import IO, Any, Protocol
 
 import numpy as np
+import orjson
 from mcap.writer import CompressionType, Writer
 
 from ridsafe.common import topics
@@ -114,6 +123,31 @@ def _to_plain(value: Any) -> Any:
 
 # One encoder, built once: json.dumps with non-default options builds a new one per call.
 _ENCODER = json.JSONEncoder(separators=(",", ":"), allow_nan=False, default=_to_plain)
+# orjson as the standard library's encoder above: keys that are not strings written as
+# strings; dataclasses and datetimes handed to ``_to_plain`` (which refuses them, as the
+# standard library does) instead of written as objects; numpy through ``_to_plain`` too (its
+# own numpy support writes a float32 by its float32 digits, not by the float64 it widens to).
+_ORJSON_OPTIONS = (
+    orjson.OPT_NON_STR_KEYS | orjson.OPT_PASSTHROUGH_DATACLASS | orjson.OPT_PASSTHROUGH_DATETIME
+)
+
+
+def _has_nonfinite(value: Any) -> bool:
+    """Might ``value`` hold a NaN or an infinity (what ``_sanitise`` nulls)? Never False when
+    it does; True also for a list of numbers whose sum overflows (the caller then asks the
+    standard library's encoder, which decides exactly)."""
+    if isinstance(value, float | np.floating):
+        return not math.isfinite(value)
+    if isinstance(value, Mapping):
+        return any(map(_has_nonfinite, value.values()))
+    if isinstance(value, np.ndarray):
+        return value.dtype.kind in "fc" and not bool(np.isfinite(value).all())
+    if isinstance(value, list | tuple):
+        try:  # a list of numbers in one C call: a NaN or an infinity makes the sum one
+            return not math.isfinite(sum(value))
+        except TypeError:  # lists, mappings, strings, None among them: one by one
+            return any(map(_has_nonfinite, value))
+    return False
 
 
 def _sanitise(value: Any, path: str, found: list[str]) -> Any:
@@ -197,17 +231,30 @@ class RecordEncoder:
         self.nonfinite: dict[str, int] = {}
 
     def encode(self, topic: str, t_s: float, record: Record) -> bytes:
+        body = self._body(topic, record)
+        if "t_s" in record:
+            return body
+        head = b'{"t_s":' + repr(float(t_s)).encode()
+        return head + b"}" if body == b"{}" else head + b"," + body[1:]
+
+    def _body(self, topic: str, record: Record) -> bytes:
+        """The record as JSON (module docstring, "Encoding speed")."""
         try:
-            body = _ENCODER.encode(record)
+            body = orjson.dumps(record, default=_to_plain, option=_ORJSON_OPTIONS)
+        except TypeError:  # orjson.JSONEncodeError: the standard library's say
+            return self._standard_body(topic, record)
+        if b"null" in body and _has_nonfinite(record):
+            return self._standard_body(topic, record)
+        return body
+
+    def _standard_body(self, topic: str, record: Record) -> bytes:
+        try:
+            return _ENCODER.encode(record).encode()
         except ValueError:  # non-finite float (allow_nan=False)
-            body = _ENCODER.encode(self._nulled(topic, record))
+            return _ENCODER.encode(self._nulled(topic, record)).encode()
         except TypeError as exc:
             where = _unserialisable_path(record)
             raise RecorderError(f"{topic}: field {where} cannot be written as JSON") from exc
-        if "t_s" in record:
-            return body.encode()
-        head = '{"t_s":' + repr(float(t_s))
-        return (head + "}" if body == "{}" else head + "," + body[1:]).encode()
 
     def _nulled(self, topic: str, record: Record) -> Any:
         found: list[str] = []

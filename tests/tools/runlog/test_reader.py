@@ -3,10 +3,12 @@
 
 from __future__ import annotations
 
+import math
 import shutil
 from pathlib import Path
 
 import pytest
+from mcap.writer import Writer
 
 from ridsafe.common import topics
 from ridsafe.tools.runlog.reader import LogReadError, read_records
@@ -53,3 +55,34 @@ def test_a_file_that_is_not_mcap_is_a_clear_error(tmp_path: Path) -> None:
         list(read_records(bad))
     with pytest.raises(LogReadError, match="cannot open"):
         list(read_records(tmp_path / "missing.mcap"))
+
+
+def test_records_orjson_refuses_are_read_as_the_standard_library_reads_them(
+    tmp_path: Path,
+) -> None:
+    """Another writer's JSON: a NaN constant and an integer beyond 64 bits parse as before;
+    what is not JSON at all is a clear error."""
+    path = tmp_path / "foreign.mcap"
+    bodies = [b'{"t_s":1.0,"x":NaN}', b'{"t_s":2.0,"n":%d}' % 2**70, b'{"t_s":3.0,"y":[1,2]}']
+    with open(path, "wb") as stream:
+        writer = Writer(stream)
+        writer.start()
+        schema = writer.register_schema("thing", "jsonschema", b'{"type":"object"}')
+        channel = writer.register_channel("/thing", "json", schema)
+        for k, body in enumerate(bodies):
+            writer.add_message(channel, log_time=k, data=body, publish_time=k)
+        writer.finish()
+    got = list(read_records(path))
+    assert [r["y"] for _topic, _t, r in got[2:]] == [[1, 2]]
+    assert math.isnan(got[0][2]["x"])
+    assert got[1][2]["n"] == 2**70
+    broken = tmp_path / "broken.mcap"
+    with open(broken, "wb") as stream:
+        writer = Writer(stream)
+        writer.start()
+        schema = writer.register_schema("thing", "jsonschema", b'{"type":"object"}')
+        channel = writer.register_channel("/thing", "json", schema)
+        writer.add_message(channel, log_time=0, data=b'{"t_s":', publish_time=0)
+        writer.finish()
+    with pytest.raises(LogReadError, match="/thing: record is not JSON"):
+        list(read_records(broken))

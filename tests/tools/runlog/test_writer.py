@@ -4,13 +4,14 @@ what the project reads."""
 
 from __future__ import annotations
 
+import enum
 import json
 import logging
 import math
 import shutil
-from collections.abc import Collection
+from collections.abc import Collection, Iterator, Mapping
 from pathlib import Path
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 import pytest
@@ -200,3 +201,71 @@ def test_a_plugin_writes_its_channel_after_each_record_it_sees(
     assert derived[0]["schema_name"] == "count" and derived[0]["schema"] == CountingPlugin.schema
     assert caplog.text.count("no derived view") == 1  # the plug-in's error cost only its view
     assert len([m for m in messages if m["topic"] == topics.GCS_CYCLE]) == 4
+
+
+class _Detector(enum.IntEnum):
+    MLAT = 5
+
+
+class _Frozen(Mapping[str, float]):
+    """A mapping that is not a dict."""
+
+    def __getitem__(self, key: str) -> float:
+        return {"a": 1.5}[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(["a"])
+
+    def __len__(self) -> int:
+        return 1
+
+
+def test_every_record_reads_back_as_the_standard_librarys_encoding_would(
+    tmp_path: Path,
+) -> None:
+    """The fast encoder (orjson) against ``json`` on what runs log and on what it would treat
+    differently: the same values come back from the file, byte for byte or not."""
+    wide = np.arange(12.0).reshape(3, 4)
+    records: list[dict[str, Any]] = [
+        {"small": 3.639023921104139e-05, "tiny": 1e-300, "big": 1.5e300, "neg": -0.0},
+        {"keys": {1: 0.19, 16: -0.51}, "flags": {True: "yes", None: "no", 2.5: "x"}},
+        {"f32": np.float32(0.1), "f32s": np.array([0.1, 0.2], dtype=np.float32)},
+        {"column": wide[:, 1], "ints": np.arange(3), "flag": np.bool_(True), "n": np.int64(7)},
+        {"tuple": (1, (2.5, "a")), "enum": _Detector.MLAT, "mapping": _Frozen()},
+        {"beyond_64_bits": 2**70, "text": "spoofing_aware ✈ \u2028", "none": None},
+        {"items": [{"sender": k, "rssi_dbm": -60.0 - k / 7} for k in range(50)]},
+    ]
+    path = tmp_path / "run.mcap"
+    with McapRecorder(path) as recorder:
+        for k, record in enumerate(records):
+            recorder.log("/custom/thing", float(k), record)
+        assert recorder.nonfinite_counts == {}
+    expected = [
+        json.loads(json.dumps({"t_s": float(k), **record}, default=_plain))
+        for k, record in enumerate(records)
+    ]
+    assert [m["data"] for m in raw_messages(path)] == expected
+    assert [r for _topic, _t, r in read_records(path)] == expected
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    return dict(value)
+
+
+def test_a_null_that_was_none_is_no_non_finite_number(tmp_path: Path) -> None:
+    path = tmp_path / "run.mcap"
+    with McapRecorder(path) as recorder:
+        recorder.log(topics.GCS_CYCLE, 0.25, {**cycle(1), "error": None})
+        recorder.log(topics.GCS_CYCLE, 0.5, {**cycle(2), "error": None, "x": np.array([np.nan])})
+        recorder.log(topics.GCS_CYCLE, 0.75, {"error": None, "v": [None, -math.inf, 2.0]})
+        recorder.log(topics.GCS_CYCLE, 1.0, {"error": None, "huge": [1e308, 1e308]})  # sum: inf
+        counts = recorder.nonfinite_counts
+    assert counts == {f"{topics.GCS_CYCLE}:x[]": 1, f"{topics.GCS_CYCLE}:v[]": 1}
+    records = [r for _topic, _t, r in read_records(path)]
+    assert [r["error"] for r in records] == [None] * 4
+    assert records[2]["v"] == [None, None, 2.0]
+    assert records[3]["huge"] == [1e308, 1e308]
