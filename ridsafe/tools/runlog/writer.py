@@ -36,6 +36,7 @@ error in a plug-in costs its view of that record (one warning per topic), never 
 
 from __future__ import annotations
 
+import itertools
 import json
 import logging
 import math
@@ -143,11 +144,23 @@ def _has_nonfinite(value: Any) -> bool:
     if isinstance(value, np.ndarray):
         return value.dtype.kind in "fc" and not bool(np.isfinite(value).all())
     if isinstance(value, list | tuple):
-        try:  # a list of numbers in one C call: a NaN or an infinity makes the sum one
-            return not math.isfinite(sum(value))
-        except TypeError:  # lists, mappings, strings, None among them: one by one
-            return any(map(_has_nonfinite, value))
+        return _list_has_nonfinite(value)
     return False
+
+
+def _list_has_nonfinite(values: list[Any] | tuple[Any, ...]) -> bool:
+    """``_has_nonfinite`` of a list: numbers, or rows of numbers, summed in one C call (a NaN
+    or an infinity makes the sum one); anything else element by element."""
+    try:
+        return not math.isfinite(sum(values))
+    except TypeError:  # lists, mappings, strings, None among them
+        pass
+    if all(type(v) is list for v in values):  # rows (positions); not mappings: their keys
+        try:
+            return not math.isfinite(sum(itertools.chain.from_iterable(values)))
+        except TypeError:
+            pass
+    return any(map(_has_nonfinite, values))
 
 
 def _sanitise(value: Any, path: str, found: list[str]) -> Any:

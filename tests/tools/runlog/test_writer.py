@@ -263,9 +263,18 @@ def test_a_null_that_was_none_is_no_non_finite_number(tmp_path: Path) -> None:
         recorder.log(topics.GCS_CYCLE, 0.5, {**cycle(2), "error": None, "x": np.array([np.nan])})
         recorder.log(topics.GCS_CYCLE, 0.75, {"error": None, "v": [None, -math.inf, 2.0]})
         recorder.log(topics.GCS_CYCLE, 1.0, {"error": None, "huge": [1e308, 1e308]})  # sum: inf
+        rows = {"error": None, "p": [[1.0, 2.0], [3.0, math.nan]], "keys": [{1: 2.0, 3: math.nan}]}
+        recorder.log(topics.GCS_CYCLE, 1.25, rows)  # a NaN in rows, one in a mapping's values
         counts = recorder.nonfinite_counts
-    assert counts == {f"{topics.GCS_CYCLE}:x[]": 1, f"{topics.GCS_CYCLE}:v[]": 1}
+    assert counts == {
+        f"{topics.GCS_CYCLE}:x[]": 1,
+        f"{topics.GCS_CYCLE}:v[]": 1,
+        f"{topics.GCS_CYCLE}:p[][]": 1,
+        f"{topics.GCS_CYCLE}:keys[].3": 1,
+    }
     records = [r for _topic, _t, r in read_records(path)]
-    assert [r["error"] for r in records] == [None] * 4
+    assert [r["error"] for r in records] == [None] * 5
+    assert records[4]["p"] == [[1.0, 2.0], [3.0, None]]
+    assert records[4]["keys"] == [{"1": 2.0, "3": None}]
     assert records[2]["v"] == [None, None, 2.0]
     assert records[3]["huge"] == [1e308, 1e308]
