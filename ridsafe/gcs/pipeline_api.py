@@ -21,6 +21,7 @@ import dataclasses
 import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import accumulate
 from typing import Protocol
 
 import numpy as np
@@ -76,9 +77,18 @@ class ObservedClaim:
 def reception_bounds(claims: Sequence[ObservedClaim]) -> NDArray[np.int64]:
     """Where each claim's receptions lie once the claims' are stacked in order: claim j's
     are rows ``bounds[j]:bounds[j + 1]`` of ``(len(claims) + 1,)`` bounds."""
-    bounds = np.zeros(len(claims) + 1, dtype=np.int64)
-    np.cumsum([claim.n_receivers for claim in claims], out=bounds[1:])
-    return bounds
+    counts = (claim.rx_sysid.shape[0] for claim in claims)
+    return np.fromiter(accumulate(counts, initial=0), dtype=np.int64, count=len(claims) + 1)
+
+
+def claimed_positions(claims: Sequence[ObservedClaim]) -> FloatArray:
+    """``(len(claims), 3)``: each claim's claimed position, in order (float64, C order;
+    ``np.stack`` builds the same array at three times the cost, a GCS cycle stacks them
+    for every claim it closes)."""
+    if not claims:
+        return np.zeros((0, 3))
+    out: FloatArray = np.concatenate([claim.claimed_p_enu_m for claim in claims]).reshape(-1, 3)
+    return out.astype(np.float64, copy=False)
 
 
 def receptions(claim: ObservedClaim, keep: NDArray[np.bool_]) -> ObservedClaim:

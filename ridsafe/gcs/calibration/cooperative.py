@@ -24,6 +24,7 @@ from ridsafe.gcs.calibration.cooperative_kernels import update_and_match
 from ridsafe.gcs.pipeline_api import (
     ObservedClaim,
     airborne_receptions,
+    claimed_positions,
     reception_bounds,
     receptions,
 )
@@ -156,7 +157,7 @@ def claim_links(claims: Sequence[ObservedClaim]) -> tuple[FloatArray, FloatArray
     """Every reception of ``claims`` (in order): its receiver's distance to the claimed
     position (m) and that link's elevation (``link_elevation_deg``)."""
     counts = [claim.n_receivers for claim in claims]
-    claimed = np.repeat(np.stack([claim.claimed_p_enu_m for claim in claims]), counts, axis=0)
+    claimed = np.repeat(claimed_positions(claims), counts, axis=0)
     offsets = np.concatenate([claim.rx_p_enu_m for claim in claims]) - claimed
     distance_m = _row_norms(offsets)
     return distance_m, link_elevation_deg(offsets[:, 2], distance_m)
@@ -202,7 +203,7 @@ class _ReceiverPositions:
             np.concatenate([c.rx_p_enu_m for c in claims]),
             bounds,
             np.array([c.t_s for c in claims]),
-            np.stack([c.claimed_p_enu_m for c in claims]).astype(np.float64, copy=False),
+            claimed_positions(claims),
             self.t_s,
             self.p_enu_m,
             float(match_age_s),

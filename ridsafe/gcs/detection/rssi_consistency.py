@@ -54,7 +54,12 @@ from ridsafe.common.messages import RidsafeDetector
 from ridsafe.common.pathloss import DB_PER_LN
 from ridsafe.gcs.detection.rssi_consistency_kernels import observe_batch_kernel, observe_params
 from ridsafe.gcs.detection.rssi_state import RING, RssiStatePool
-from ridsafe.gcs.pipeline_api import DetectorResult, ObservedClaim, reception_bounds
+from ridsafe.gcs.pipeline_api import (
+    DetectorResult,
+    ObservedClaim,
+    claimed_positions,
+    reception_bounds,
+)
 from ridsafe.gcs.pipeline_config import DetectionConfig, PipelineConfig
 
 FloatArray = NDArray[np.float64]
@@ -335,7 +340,7 @@ def _run_kernel(
     """``observe_batch_kernel`` on ``claims``, claim j on pool row ``rows[j]``."""
     bounds = reception_bounds(claims)
     return observe_batch_kernel(
-        np.stack([c.claimed_p_enu_m for c in claims]),
+        claimed_positions(claims),
         np.concatenate([c.rx_p_enu_m for c in claims]),
         np.concatenate([c.rssi_dbm for c in claims]),
         np.concatenate([c.rx_sysid for c in claims]).astype(np.int64, copy=False),
