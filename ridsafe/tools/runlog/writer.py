@@ -230,10 +230,26 @@ def schema_bytes(schema: Mapping[str, Any]) -> bytes:
     return json.dumps(schema, separators=(",", ":")).encode()
 
 
+def _fast_json(value: Any) -> bytes | None:
+    """``value`` as JSON by ``orjson``, or None where the standard library's encoder must
+    decide (module docstring, "Encoding speed"): a non-finite number possible, or a value
+    ``orjson`` refuses."""
+    try:
+        data = orjson.dumps(value, default=_to_plain, option=_ORJSON_OPTIONS)
+    except TypeError:  # orjson.JSONEncodeError
+        return None
+    if b"null" in data and _has_nonfinite(value):
+        return None
+    return data
+
+
 def derived_bytes(message: Any) -> bytes:
-    """A plug-in's message (a dict, or JSON text already encoded) as message data."""
-    text = message if isinstance(message, str) else _ENCODER.encode(message)
-    return text.encode()
+    """A plug-in's message (a dict, or JSON text already encoded) as message data; a
+    non-finite number in it is a ValueError (the plug-in's error, not the record's)."""
+    if isinstance(message, str):
+        return message.encode()
+    fast = _fast_json(message)
+    return fast if fast is not None else _ENCODER.encode(message).encode()
 
 
 class RecordEncoder:
@@ -253,13 +269,8 @@ class RecordEncoder:
 
     def _body(self, topic: str, record: Record) -> bytes:
         """The record as JSON (module docstring, "Encoding speed")."""
-        try:
-            body = orjson.dumps(record, default=_to_plain, option=_ORJSON_OPTIONS)
-        except TypeError:  # orjson.JSONEncodeError: the standard library's say
-            return self._standard_body(topic, record)
-        if b"null" in body and _has_nonfinite(record):
-            return self._standard_body(topic, record)
-        return body
+        fast = _fast_json(record)
+        return fast if fast is not None else self._standard_body(topic, record)
 
     def _standard_body(self, topic: str, record: Record) -> bytes:
         try:

@@ -20,7 +20,13 @@ from mcap.reader import make_reader
 from ridsafe.common import topics
 from ridsafe.common.logsink import Record
 from ridsafe.tools.runlog.reader import read_records
-from ridsafe.tools.runlog.writer import METADATA_NAME, DerivedChannels, McapRecorder, RecorderError
+from ridsafe.tools.runlog.writer import (
+    METADATA_NAME,
+    DerivedChannels,
+    McapRecorder,
+    RecorderError,
+    derived_bytes,
+)
 from tests.tools.runlog.mcap_files import cycle, raw_messages
 
 
@@ -278,3 +284,11 @@ def test_a_null_that_was_none_is_no_non_finite_number(tmp_path: Path) -> None:
     assert records[4]["keys"] == [{"1": 2.0, "3": None}]
     assert records[2]["v"] == [None, None, 2.0]
     assert records[3]["huge"] == [1e308, 1e308]
+
+
+def test_a_plugins_message_is_encoded_as_a_record_and_refuses_non_finite_numbers() -> None:
+    message = {"entities": [{"id": "vehicle/3", "pose": (1.5, np.float64(2.25), -0.0)}], "n": 2}
+    assert json.loads(derived_bytes(message)) == json.loads(json.dumps(message, default=_plain))
+    assert derived_bytes('{"already":"text"}') == b'{"already":"text"}'
+    with pytest.raises(ValueError, match="Out of range float values"):
+        derived_bytes({"entities": [], "x": math.nan})
