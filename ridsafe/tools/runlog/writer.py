@@ -20,13 +20,13 @@ Readers see ``None``; ``numpy.array(values, dtype=float)`` turns it back into Na
 JSON cannot encode at all (a set, an object) raises :class:`RecorderError` naming the topic
 and field. numpy scalars and arrays are accepted and converted (``.item()``/``.tolist()``).
 
-Encoding speed. Records are encoded by ``orjson`` (``bench/bench_recorder.py`` prints it
-against the standard library's encoder: 4.3x on a 16-aircraft run's mix of records; at 64
-aircraft a run's log is 250 MB of JSON).
-It writes the same values: a number may be spelled differently (``1e-6`` for ``1e-06``),
-which every JSON reader reads as the same float. What it would do differently falls back to
-the standard library's encoder, so nothing else changes: a record whose JSON holds ``null``
-is checked for non-finite numbers (``orjson`` writes them as ``null`` without a word), and a
+Encoding speed. Records, and the plug-ins' messages, are encoded by ``orjson``
+(``bench/bench_recorder.py`` prints it against the standard library's encoder: 4.3x on a
+16-aircraft run's mix of records; at 64 aircraft a run's log is 250 MB of JSON). It writes
+the same values: a number may be spelled differently (``1e-6`` for ``1e-06``), which every
+JSON reader reads as the same float. What it would do differently falls back to the
+standard library's encoder, so nothing else changes: a message whose JSON holds ``null`` is
+checked for non-finite numbers (``orjson`` writes them as ``null`` without a word), and a
 value ``orjson`` refuses (an integer beyond 64 bits) is encoded as before.
 
 Derived channels. A :class:`WriterPlugin` sees the records of the topics it names as they are
