@@ -46,7 +46,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.special import log_ndtr
 
-from ridsafe.gcs.pipeline_api import ObservedClaim
+from ridsafe.gcs.pipeline_api import ObservedClaim, reception_bounds
 
 FloatArray = NDArray[np.float64]
 
@@ -85,12 +85,12 @@ class SensitivityFloor:
     def observe(self, claims: Sequence[ObservedClaim]) -> None:
         """Take the weakest RSSI of each claim whose weakest is finite (a claim holding a
         NaN or an infinity teaches nothing), all claims in one pass."""
-        heard = [claim.rssi_dbm for claim in claims if claim.rssi_dbm.shape[0]]
+        heard = [claim for claim in claims if claim.n_receivers]
         if not heard:
             return
-        starts = np.zeros(len(heard), dtype=np.intp)
-        np.cumsum([rssi.shape[0] for rssi in heard[:-1]], out=starts[1:])
-        weakest = np.minimum.reduceat(np.concatenate(heard), starts)  # NaN stays NaN
+        starts = reception_bounds(heard)[:-1]
+        rssi = np.concatenate([claim.rssi_dbm for claim in heard])
+        weakest = np.minimum.reduceat(rssi, starts)  # NaN stays NaN
         weakest = weakest[np.isfinite(weakest)]
         if weakest.shape[0]:
             self._weakest_dbm = min(self._weakest_dbm, float(weakest.min()))
