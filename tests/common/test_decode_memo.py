@@ -10,6 +10,7 @@ import math
 from ridsafe.common import codec
 from ridsafe.common import messages as m
 from ridsafe.common.codec import link
+from ridsafe.common.dialect import ridsafe_v20 as mav
 
 
 def _region(valid_until_s: float) -> m.UnsafeRegionMsg:
@@ -75,3 +76,26 @@ def test_frame_all_gives_the_packets_frame_gives_one_at_a_time() -> None:
         payloads = [codec.encode_payload(_region(12.0 + k)) for k in range(300)]  # seq wraps
         assert many.frame_all(payloads) == [one.frame(p) for p in payloads]
         assert many.pack(_region(1.0)) == one.pack(_region(1.0))  # and the state moved alike
+
+
+def test_messages_that_never_repeat_are_decoded_alike_and_not_remembered() -> None:
+    names = {cls.msgname for cls in mav.mavlink_map.values()}
+    assert names >= codec.wire.UNIQUE_PAYLOAD_MESSAGES  # no name that matches nothing
+    sender, receiver = codec.MavlinkLink(1, 191), codec.MavlinkLink(255, 190)
+    position = m.LocalPositionNed(12.5, (10.0, -20.0, -30.0), (1.0, 2.0, -0.5))
+    link._DECODED.clear()
+    (first,) = receiver.feed(sender.pack(position))
+    (again,) = receiver.feed(sender.pack(position))
+    assert first.message == again.message == _decoded_fresh(position)
+    assert first.message is not again.message
+    assert not link._DECODED
+    receiver.feed(sender.pack(_region(12.0)))  # a message that does repeat still is
+    assert len(link._DECODED) == 1
+
+
+def _decoded_fresh(message: m.Message) -> m.Message:
+    payload = codec.encode_payload(message)
+    layout = codec.wire.layout(payload.msg_id)
+    assert layout is not None
+    decoded: m.Message = codec.MavlinkLink(1, 191)._decode_fresh(layout, payload.data, b"")
+    return decoded

@@ -41,8 +41,9 @@ logger = logging.getLogger(__name__)
 #: immutable, so a payload decoded once is not decoded again while it is remembered: the
 #: GCS's regions, alerts and heartbeats reach every companion with the same payload (only
 #: the header and signature differ), and so do the many constant heartbeats. Only valid
-#: messages are remembered (a rejected payload is rejected, counted and logged each time);
-#: the memo is cleared when full. Shared by every link of the process.
+#: messages are remembered (a rejected payload is rejected, counted and logged each time),
+#: and only of the messages that can repeat (not ``wire.UNIQUE_PAYLOAD_MESSAGES``); the memo
+#: is cleared when full. Shared by every link of the process.
 DECODED_MEMO_SIZE = 4096
 _DECODED: dict[tuple[str, bytes], m.Message] = {}
 
@@ -293,6 +294,8 @@ class MavlinkLink:
         a value no valid sender produces (dropped and counted by message and field)."""
         if packet_layout.decode is None:
             return None
+        if not packet_layout.remembered:
+            return self._decode_fresh(packet_layout, payload, packet)
         key = (packet_layout.name, payload)
         known = _DECODED.get(key)
         if known is not None:

@@ -104,6 +104,7 @@ class Layout:
     chars: tuple[int, ...]
     make_view: Callable[[Iterable[Any]], Any]
     decode: FromMav | None  # the domain message of a view; None: the apps do not use it
+    remembered: bool  # its decodings kept by the links' memo (not in UNIQUE_PAYLOAD_MESSAGES)
 
     def view(self, payload: bytes) -> Any:
         """The fields of ``payload`` (trailing zeros restored) as attributes."""
@@ -129,6 +130,21 @@ class Layout:
 #: frame report is 250 such bytes, and every aircraft hears ~20 per second.
 BYTES_VIEW_MESSAGES = frozenset({"RIDSAFE_RID_FRAME"})
 
+#: Messages whose payload is, by what it carries, never received twice: a measurement with
+#: its own time or a per-receiver signal strength (``link.DECODED_MEMO_SIZE``'s memo would
+#: only hash, keep and drop them: at 16 aircraft 100,000 a run, and none met again).
+UNIQUE_PAYLOAD_MESSAGES = frozenset(
+    {
+        "RIDSAFE_RID_FRAME",  # the RSSI of one receiver
+        "RIDSAFE_OBSERVATION",  # one receiver's report with its receive time
+        "GLOBAL_POSITION_INT",  # time_boot_ms and the position of one vehicle
+        "LOCAL_POSITION_NED",
+        "ATTITUDE",
+        "OPEN_DRONE_ID_LOCATION",  # its own timestamp
+        "SET_POSITION_TARGET_LOCAL_NED",  # time_boot_ms
+    }
+)
+
 
 @functools.cache
 def layout(msg_id: int) -> Layout | None:
@@ -153,6 +169,7 @@ def layout(msg_id: int) -> Layout | None:
         chars,
         _view_type(cls.msgname, tuple(cls.fieldnames)),
         decoder_for(cls.msgname),
+        cls.msgname not in UNIQUE_PAYLOAD_MESSAGES,
     )
 
 
