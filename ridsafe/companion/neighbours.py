@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable, Collection
+from collections.abc import Callable, Collection, Hashable
 from dataclasses import dataclass
 
 from ridsafe.common import codec
@@ -63,6 +63,8 @@ class NeighbourTable:
         self.own_id = own_id
         self.max_age_s = max_age_s
         self._claims: dict[str, _Claim] = {}
+        # Per uas_id: the claim, the frame and the flag its Neighbour was made for.
+        self._made: dict[str, tuple[_Claim, Hashable, Neighbour]] = {}
         self.unusable = 0  # LOCATIONs without a position
 
     def __len__(self) -> int:
@@ -91,20 +93,44 @@ class NeighbourTable:
         gone = [uas for uas, c in self._claims.items() if now_s - c.t_s > self.max_age_s]
         for uas in gone:
             del self._claims[uas]
+            self._made.pop(uas, None)
         return gone
 
     def neighbours(
-        self, now_s: float, to_local: ToLocal, flagged: Collection[str] = ()
+        self,
+        now_s: float,
+        to_local: ToLocal,
+        flagged: Collection[str] = (),
+        frame: Hashable | None = None,
     ) -> tuple[Neighbour, ...]:
-        """The current claims in the local NED frame, sorted by id."""
+        """The current claims in the local NED frame, sorted by id.
+
+        ``frame``: what ``to_local`` depends on (``OwnTelemetry.local_frame``); while it
+        compares equal, a claim already converted is not converted again (a claim lives a
+        second, and the planner asks twice a second). None: every claim converted."""
         self.expire(now_s)
-        return tuple(
-            Neighbour(
+        out: list[Neighbour] = []
+        made = self._made
+        for uas, c in sorted(self._claims.items()):
+            is_flagged = uas in flagged
+            kept = made.get(uas)
+            if (
+                kept is not None
+                and kept[0] is c
+                and frame is not None
+                and kept[1] == frame
+                and kept[2].flagged is is_flagged
+            ):
+                out.append(kept[2])
+                continue
+            neighbour = Neighbour(
                 uas_id=uas,
                 p_ned_m=to_local(c.lat_deg, c.lon_deg, c.alt_m),
                 v_ned_m_s=c.v_ned_m_s,
                 t_s=c.t_s,
-                flagged=uas in flagged,
+                flagged=is_flagged,
             )
-            for uas, c in sorted(self._claims.items())
-        )
+            if frame is not None:
+                made[uas] = (c, frame, neighbour)
+            out.append(neighbour)
+        return tuple(out)

@@ -115,7 +115,7 @@ class PlannerDriver:
             return
         sim_now = self.own.sim_time(now_s)
         to_local = self.own.to_local
-        claims = neighbours.neighbours(sim_now, to_local, regions.flagged)
+        claims = neighbours.neighbours(sim_now, to_local, regions.flagged, self.own.local_frame)
         home = self.own.home
         if self._ignore_grounded and home is not None:
             claims = tuple(n for n in claims if not on_ground(n, home.p_ned_m[2]))
@@ -170,7 +170,7 @@ class PlannerDriver:
         region_ids = {r.uas_id for r in live}
         claims = tuple(
             n
-            for n in neighbours.neighbours(sim_now, to_local, regions.flagged)
+            for n in neighbours.neighbours(sim_now, to_local, regions.flagged, self.own.local_frame)
             if trust_flagged or not (n.flagged or n.uas_id in region_ids)
         )
         ceiling_m = self._pad_ceiling_m

@@ -128,6 +128,14 @@ class OwnTelemetry:
         hn, he, hd = self.home.p_ned_m
         return (n + hn, e + he, -u + hd)
 
+    @property
+    def local_frame(self) -> tuple[frames.GeodeticOrigin, m.Vec3] | None:
+        """What ``to_local`` depends on (None before HOME_POSITION): equal frames, equal
+        conversions."""
+        if self.home_origin is None or self.home is None:
+            return None
+        return self.home_origin, self.home.p_ned_m
+
     def to_geodetic(self, p_ned_m: m.Vec3) -> tuple[float, float, float]:
         if self.home_origin is None or self.home is None:
             raise LookupError("no HOME_POSITION yet")

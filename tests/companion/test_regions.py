@@ -163,6 +163,35 @@ def test_neighbours_expire_after_max_age_and_keep_only_the_latest_claim() -> Non
     assert table.neighbours(5.01, to_local) == ()
 
 
+def test_a_claim_is_converted_once_per_frame_and_again_when_anything_changes() -> None:
+    calls: list[tuple[float, float, float]] = []
+
+    def counted(lat: float, lon: float, alt: float) -> Vec3:
+        calls.append((lat, lon, alt))
+        return to_local(lat, lon, alt)
+
+    table = NeighbourTable("RSAF800000001", max_age_s=3.0)
+    table.update(1.0, _claim("RSAF800000002", (200.0, 10.0, -60.0), (1.0, 2.0, 0.0)))
+    table.update(1.0, _claim(SPOOFER, (-80.0, 40.0, -55.0), (0.0, 7.0, 0.0)))
+    frame = (HOME, (0.0, 0.0, 0.0))
+    first = table.neighbours(1.5, counted, frame=frame)
+    assert first == table.neighbours(1.5, to_local)  # the same as without a frame
+    assert len(calls) == 2
+    again = table.neighbours(2.0, counted, frame=(HOME, (0.0, 0.0, 0.0)))  # an equal frame
+    assert again == first and all(a is b for a, b in zip(again, first, strict=True))
+    assert len(calls) == 2
+    table.update(2.1, _claim(SPOOFER, (-70.0, 40.0, -55.0), (0.0, 7.0, 0.0)))  # a new claim
+    newer = table.neighbours(2.2, counted, frame=frame)
+    assert len(calls) == 3 and newer[0] is first[0]
+    assert newer[1].p_ned_m[0] == pytest.approx(-70.0, abs=1e-6)
+    flagged = table.neighbours(2.2, counted, flagged={SPOOFER}, frame=frame)  # a new flag
+    assert flagged[1].flagged and len(calls) == 4
+    moved = table.neighbours(2.3, counted, flagged={SPOOFER}, frame=(HOME, (1.0, 0.0, 0.0)))
+    assert len(calls) == 6 and moved == table.neighbours(2.3, to_local, flagged={SPOOFER})
+    table.neighbours(2.3, counted, flagged={SPOOFER})  # no frame: every claim converted
+    assert len(calls) == 8
+
+
 def test_a_claim_without_position_is_counted_unusable() -> None:
     table = NeighbourTable("RSAF800000001")
     loc = replace(_claim("RSAF800000002", (0, 0, 0), (0, 0, 0)), lat_deg=None, lon_deg=None)
