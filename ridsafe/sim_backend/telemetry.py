@@ -10,6 +10,7 @@ Altitudes: the sim has no geoid, so "MSL" altitudes are WGS-84 ellipsoid heights
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -195,7 +196,25 @@ class FleetSnapshot:
         self.euler_rad = state[:, EULER]
         self.rates_flu_rad_s = state[:, BODY_RATES]
         self.homes = homes
-        self.lat_deg, self.lon_deg, self.alt_m = frames.enu_to_geodetic(origin, self.p_enu_m)
+        self._origin = origin
+
+    @functools.cached_property
+    def _geodetic(self) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """(lat deg, lon deg, alt m) of every vehicle: converted on first use (a tick whose
+        due messages carry no geodetic position converts nothing)."""
+        return frames.enu_to_geodetic(self._origin, self.p_enu_m)
+
+    @property
+    def lat_deg(self) -> FloatArray:
+        return self._geodetic[0]
+
+    @property
+    def lon_deg(self) -> FloatArray:
+        return self._geodetic[1]
+
+    @property
+    def alt_m(self) -> FloatArray:
+        return self._geodetic[2]
 
     def global_position_int(self, i: int) -> m.GlobalPositionInt:
         home = self.homes[i]

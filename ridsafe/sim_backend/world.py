@@ -149,6 +149,7 @@ class SimBackend:
         self.fleet = OctorotorFleet(
             self.n_vehicles, self.config.vehicle, self.config.controller, self._initial_state()
         )
+        self._samples_kept: tuple[float, list[VehicleSample]] | None = None  # (fleet t_s, ...)
         self.homes = [HomeFrame(scenario.origin, s[POS_ENU]) for s in self._initial_state()]
         phases = rng.stream(scenario.seed, "sim/transponders").uniform(
             0.0, STATIC_PERIOD_S, self.n_vehicles
@@ -317,14 +318,21 @@ class SimBackend:
         }
 
     def _samples(self) -> list[VehicleSample]:
+        """Every vehicle's truth now; the same list until the fleet advances (the sim moves
+        its vehicles only by advancing them: a tick's first call gets the last tick's)."""
+        fleet_t_s = self.fleet.t_s
+        if self._samples_kept is not None and self._samples_kept[0] == fleet_t_s:
+            return self._samples_kept[1]
         state = self.fleet.state
         positions, velocities = state[:, POS_ENU], state[:, VEL_ENU]
-        return [
+        samples = [
             VehicleSample(positions[i], velocities[i], psi, on_ground)
             for i, (psi, on_ground) in enumerate(
                 zip(state[:, IDX_PSI].tolist(), self.fleet.on_ground.tolist(), strict=True)
             )
         ]
+        self._samples_kept = (fleet_t_s, samples)
+        return samples
 
     def _route(self, endpoint: _Port, received: codec.Received, sample: VehicleSample) -> None:
         msg = received.message
