@@ -11,7 +11,7 @@ from ridsafe.common import codec
 from ridsafe.common import messages as m
 from ridsafe.common.codec.registry import byte_arrays, wire_struct, wire_values
 from ridsafe.common.codec.units import Wire
-from ridsafe.common.codec.wire import BYTES_VIEW_MESSAGES, layout
+from ridsafe.common.codec.wire import BYTES_VIEW_MESSAGES, _encoded, layout
 from ridsafe.common.dialect import ridsafe_v20 as mav
 from ridsafe.common.errors import WireError
 
@@ -56,3 +56,23 @@ def test_a_uint8_array_of_the_wrong_length_is_refused() -> None:
     wire = Wire(mav.MAVLink_ridsafe_rid_frame_message, (-70.0, [0] * 20, 1, 6, 3, b"abc"))
     with pytest.raises(WireError, match="uint8"):
         wire_values(wire)
+
+
+def test_reports_of_one_frame_encode_as_each_alone_whatever_their_signal_strength() -> None:
+    """The payloads of a frame's reports share all but the signal strength
+    (``wire._rid_frame_payload``): the same bytes as encoding each report afresh."""
+    rng = random.Random(7)
+    frames = [bytes([0x12]) + bytes(rng.randrange(256) for _ in range(24)), bytes([0x02]) * 25]
+    strengths = [-71.25, -0.0, 0.0, 3.4e38, float("inf"), float("-inf"), 1e-45, -120.0]
+    strengths += [rng.uniform(-110.0, -30.0) for _ in range(20)]
+    for frame in frames:
+        for sender in (b"", b"\x01\x02\x03\x04\x05\x06", b"RSAF800000002"):
+            for rssi in strengths:
+                report = m.RidFrameReport(frame, rssi, sender, int(m.RidTransport.SIMULATED))
+                assert codec.encode_payload(report) == _encoded(report)
+    nan = codec.encode_payload(m.RidFrameReport(frames[0], float("nan"), b"", 1))
+    assert nan == _encoded(m.RidFrameReport(frames[0], float("nan"), b"", 1))
+    too_strong = m.RidFrameReport(frames[0], 1e39, b"", 1)
+    for encode in (codec.encode_payload, _encoded):  # refused alike
+        with pytest.raises(OverflowError):
+            encode(too_strong)

@@ -64,11 +64,43 @@ class Payload(NamedTuple):
 def encode_payload(message: m.Message) -> Payload:
     """The payload of a domain message (raises WireError if it cannot be encoded). Encoding
     once and framing per link (``MavlinkLink.frame``) sends one message to many peers."""
+    if type(message) is m.RidFrameReport:
+        return _rid_frame_payload(message)
+    return _encoded(message)
+
+
+def _encoded(message: m.Message) -> Payload:
     wire = to_wire(message)
     data = wire_struct(wire.cls).pack(*wire_values(wire))
     return Payload(
         wire.cls.id, _CRC_EXTRA_BYTE[wire.cls.crc_extra], data.rstrip(b"\x00") or data[:1]
     )
+
+
+#: RIDSAFE_RID_FRAME's first field on the wire (the largest type first): the signal strength.
+_RSSI_F32 = struct.Struct("<f")
+#: (frame, sender id, transport, channel) -> (message id, CRC extra, the payload after the
+#: signal strength) of frames encoded lately. One frame is heard by every aircraft in range,
+#: and their reports differ only in the signal strength: the sim's transponders report each
+#: of the 250-byte frames 15 times a second per receiver at 16 aircraft.
+_RID_FRAME_TAILS: dict[tuple[bytes, bytes, int, int], tuple[int, bytes, bytes]] = {}
+_RID_FRAME_TAILS_SIZE = 256
+
+
+def _rid_frame_payload(report: m.RidFrameReport) -> Payload:
+    """``_encoded(report)``, its bytes after the signal strength remembered per frame."""
+    key = (report.frame, report.sender_id, report.transport, report.channel)
+    tail = _RID_FRAME_TAILS.get(key)
+    if tail is not None:
+        msg_id, crc_extra, rest = tail
+        return Payload(msg_id, crc_extra, _RSSI_F32.pack(report.rssi_dbm) + rest)
+    payload = _encoded(report)
+    if len(payload.data) > _RSSI_F32.size:  # else the rest was all zeros, trimmed away
+        if len(_RID_FRAME_TAILS) >= _RID_FRAME_TAILS_SIZE:
+            _RID_FRAME_TAILS.clear()
+        rest = payload.data[_RSSI_F32.size :]
+        _RID_FRAME_TAILS[key] = (payload.msg_id, payload.crc_extra_byte, rest)
+    return payload
 
 
 def _view_type(name: str, fieldnames: tuple[str, ...]) -> Callable[[Iterable[Any]], Any]:
