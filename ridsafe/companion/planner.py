@@ -115,6 +115,7 @@ class ProgressWatchdog:
 
     after_s: float
     progress_m: float
+    label: str = "planner"  # who is stuck, in the log (e.g. "aircraft 7")
     best_m: float = math.inf
     since_s: float | None = None
     stuck: bool = False
@@ -127,13 +128,16 @@ class ProgressWatchdog:
         self.stuck = now_s - self.since_s >= self.after_s
         if self.stuck and not was_stuck:
             logger.warning(
-                "no progress toward the goal for %.0f s (%.0f m to go, best %.0f m)",
+                "%s: no progress toward the goal for %.0f s (%.0f m to go, best %.0f m)",
+                self.label,
                 now_s - self.since_s,
                 distance_m,
                 self.best_m,
             )
         elif was_stuck and not self.stuck:
-            logger.info("progress toward the goal resumed (%.0f m to go)", distance_m)
+            logger.info(
+                "%s: progress toward the goal resumed (%.0f m to go)", self.label, distance_m
+            )
         return self.stuck
 
 
@@ -188,12 +192,18 @@ def _vec(x: FloatArray) -> Vec3:
 class FastMdpPlanner:
     """One aircraft's planner (keeps its arrival latch and progress watchdog between calls)."""
 
-    def __init__(self, policy: RidPolicy, config: PlannerConfig | None = None) -> None:
+    def __init__(
+        self, policy: RidPolicy, config: PlannerConfig | None = None, label: str | None = None
+    ) -> None:
+        """``label``: who plans, in the log lines (default the policy's name); the
+        companions' factories name the aircraft, many of which share one process's log."""
         self.policy = policy
         self.name = policy.name
+        self.label = policy.name if label is None else label
         self.config = config if config is not None else PlannerConfig()
         self._kernel_params = KernelParams.from_config(self.config)
-        self._watchdog = ProgressWatchdog(self.config.stuck_after_s, self.config.stuck_progress_m)
+        cfg = self.config
+        self._watchdog = ProgressWatchdog(cfg.stuck_after_s, cfg.stuck_progress_m, self.label)
         self.arrived = False
 
     def warm_up(self) -> None:
@@ -215,7 +225,7 @@ class FastMdpPlanner:
         distance = float(np.linalg.norm(goal - p0))
         if not self.arrived and distance <= cfg.arrival_radius_m:
             self.arrived = True
-            logger.info("%s: arrived within %.1f m of the goal", self.name, distance)
+            logger.info("%s: arrived within %.1f m of the goal", self.label, distance)
         neighbours, regions = self._hazards(planner_input)
         scene = build_scene(planner_input.t_s, p0, neighbours, regions, cfg)
         actions = build_action_set(cfg, heading_to_rad(p0, goal))
@@ -296,12 +306,12 @@ class FastMdpPlanner:
 class AwarePlanner(FastMdpPlanner):
     """Spoofing-aware: distrusts flagged RID, shields against unsafe regions."""
 
-    def __init__(self, config: PlannerConfig | None = None) -> None:
-        super().__init__(AWARE, config)
+    def __init__(self, config: PlannerConfig | None = None, label: str | None = None) -> None:
+        super().__init__(AWARE, config, label)
 
 
 class TrustRidPlanner(FastMdpPlanner):
     """The paper's baseline: every RID claim is true, unsafe regions are ignored."""
 
-    def __init__(self, config: PlannerConfig | None = None) -> None:
-        super().__init__(TRUST_RID, config)
+    def __init__(self, config: PlannerConfig | None = None, label: str | None = None) -> None:
+        super().__init__(TRUST_RID, config, label)

@@ -114,14 +114,19 @@ def _mdp_config(settings: PlannerSettings) -> PlannerConfig:
     )
 
 
+def _label(settings: PlannerSettings) -> str:
+    """Who plans, in the planner's log lines (a lockstep run's companions share one log)."""
+    return f"aircraft {settings.sysid}"
+
+
 def _aware(settings: PlannerSettings) -> Planner:
-    planner = AwarePlanner(_mdp_config(settings))
+    planner = AwarePlanner(_mdp_config(settings), _label(settings))
     planner.warm_up()  # compile (or load) the kernel now, not in the first decision
     return planner
 
 
 def _trust_rid(settings: PlannerSettings) -> Planner:
-    planner = TrustRidPlanner(_mdp_config(settings))
+    planner = TrustRidPlanner(_mdp_config(settings), _label(settings))
     planner.warm_up()
     return planner
 

@@ -36,6 +36,7 @@ from ridsafe.companion.planner_eval import (
     build_scene,
     score_actions,
 )
+from ridsafe.companion.planners import PlannerSettings, make_planner
 from ridsafe.companion.value import region_distance_m
 from ridsafe.tools.planner_loop.scripted import ScriptedSpoofer, fly
 
@@ -298,6 +299,19 @@ def test_a_planner_that_goes_nowhere_says_stuck() -> None:
     planner = TrustRidPlanner()
     statuses = [planner.plan(_inp(t_s=t)).status for t in np.arange(0.0, 31.0, 0.5)]
     assert statuses[0] is PlannerStatus.CRUISE and statuses[-1] is PlannerStatus.STUCK
+
+
+@pytest.mark.parametrize("name", ["aware", "trust-rid"])
+def test_a_companions_planner_names_its_aircraft_when_stuck(
+    name: str, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A lockstep run's 64 companions share one log: a stuck planner says which it is."""
+    planner = make_planner(name, PlannerSettings(sysid=7))
+    with caplog.at_level(logging.WARNING, logger="ridsafe.companion.planner"):
+        for t in np.arange(0.0, 31.0, 0.5):
+            planner.plan(_inp(t_s=t))
+    (stuck,) = [r.getMessage() for r in caplog.records if "no progress" in r.getMessage()]
+    assert stuck.startswith("aircraft 7: no progress toward the goal for 30 s")
 
 
 VEC = st.tuples(st.floats(-8.0, 8.0), st.floats(-8.0, 8.0), st.floats(-1.5, 1.5))
