@@ -14,10 +14,14 @@ Every other companion, not the first half and the second: the scenarios launch a
 system-id order, so halves would differ in how many fly (and plan) at a time, and each
 exchange waits for the slower process.
 
-At each ``|`` the two exchange the datagrams that cross between them (this process sends
-first, the worker receives first, so neither can block the other on a full pipe). Every core
-is given the same input, in the same order, at the same sim time as in the serial run, so it
-does the same thing.
+At each ``|`` the two exchange the datagrams that cross between them. The worker sends its
+half as soon as it has it (the GCS's answer before the sim's tick comes, its companions'
+datagrams for the sim before this process's companions are done), so this process finds it
+waiting instead of asking and waiting for the worker's pickling and the pipe; an answer too
+big to be sure of fitting the socket's buffer waits until the worker has read this process's
+next message, as every message did before, so neither can block the other on a full pipe.
+Every core is given the same input, in the same order, at the same sim time as in the serial
+run, so it does the same thing.
 
 The worker also writes the log, in the time it waits for this process (one record at a time,
 looking for the next message between two). A core's records go to its process's
@@ -40,6 +44,7 @@ import time
 import traceback
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
+from multiprocessing.reduction import ForkingPickler
 from typing import Any, Protocol, cast
 
 from ridsafe.common.logsink import LogSink, Record
@@ -71,6 +76,9 @@ _JOIN_TIMEOUT_S = 10.0
 #: development machine (a virtual one) 100 us gave 16 + 1 in 6.13 s, 1 ms 5.70 s, 5 ms no
 #: better; the cost is CPU time spun (9.6 -> 10.3 s) on the two CPUs the run has to itself.
 _SPIN_S = 1e-3
+#: Answers the worker sends before it is asked, at most this big (a socket pair holds ~176 kB:
+#: two of them and the other side's can never fill it).
+_EARLY_MAX_BYTES = 32_768
 #: Records the worker lets wait for a quiet moment; beyond, it writes them before it answers.
 _MAX_PENDING_RECORDS = 200_000
 
@@ -255,6 +263,7 @@ class SplitLockstep:
                 with self._buffer.lane(name):
                     core.finish(now_s)
             self._conn.send(("finish", now_s, {}, self._buffer.take()))
+            self._answer(_ANSWER_TIMEOUT_S)  # the last GCS's answer: no tick follows
             self._answer(_ANSWER_TIMEOUT_S)  # the worker's companions and the GCS are done
             self._sim.finish(now_s)
 
@@ -267,6 +276,7 @@ class SplitLockstep:
         try:
             with ctrl_c_deferred():
                 self._conn.send(("close", self.t_s, {}, self._buffer.take()))
+                self._answer(_CLOSE_TIMEOUT_S)  # the answer sent before it was asked
                 self._answer(_CLOSE_TIMEOUT_S)
         finally:
             self._end_worker()
@@ -402,7 +412,11 @@ def _serve(
             routes.split(roles.gcs, sent_by_gcs, to_companions)
             gcs_now_s = None
         writer.add(buffer.take())  # the GCS's records come before the sim's of the next tick
+        theirs = {name: sent for name, sent in to_companions.items() if name not in mine}
+        late = _send_early(conn, ("ok", theirs))
         kind, now_s, from_sim, records = writer.wait_for(conn)
+        if late is not None:
+            conn.send_bytes(late)
         if kind == "finish":  # the run's companions said goodbye; now these and the GCS
             for name, core in cores:
                 with buffer.lane(name):
@@ -415,15 +429,26 @@ def _serve(
         writer.add(records)
         if kind == "close":
             return
-        theirs = {name: sent for name, sent in to_companions.items() if name not in mine}
-        conn.send(("ok", theirs))
         inboxes = {name: to_companions[name] + from_sim[name] for name, _ in cores}
         to_sim, to_gcs = _step_companions(routes, roles, cores, inboxes, now_s, buffer)
+        late = _send_early(conn, ("ok", to_sim))
         from_here, records = writer.wait_for(conn)
+        if late is not None:
+            conn.send_bytes(late)
         writer.add(in_serial_order([*records, *buffer.take()], order))  # both processes'
-        conn.send(("ok", to_sim))
         gcs_inbox = _in_companion_order({**from_here, **to_gcs}, roles.companions)
         gcs_now_s = now_s
+
+
+def _send_early(conn: multiprocessing.connection.Connection, message: object) -> bytes | None:
+    """Send ``message`` now if it is small (None), else return it pickled, to be sent once
+    the other side's next message is read: a small one always fits the socket's buffer
+    beside another, so this side never blocks while the other blocks sending to it."""
+    blob = bytes(ForkingPickler.dumps(message))
+    if len(blob) > _EARLY_MAX_BYTES:
+        return blob
+    conn.send_bytes(blob)
+    return None
 
 
 def _step_companions(

@@ -150,12 +150,15 @@ def _rounded(records: Iterable[tuple[str, float, Record]]) -> list[tuple[str, fl
     return rounded
 
 
+@pytest.mark.parametrize("early_max_bytes", [lockstep_split._EARLY_MAX_BYTES, 0])
 @pytest.mark.parametrize("n", [0, 1, 2, 5])
 def test_every_core_is_handed_what_the_serial_run_hands_it_in_the_same_order(
-    n: int, tmp_path: Path
+    n: int, early_max_bytes: int, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """... and the worker writes every record of both processes in the serial order, those
-    this process logs after ``finish`` last."""
+    this process logs after ``finish`` last; whether the worker's answers go before they
+    are asked for (small ones) or after (all of them, with a limit of 0 bytes)."""
+    monkeypatch.setattr(lockstep_split, "_EARLY_MAX_BYTES", early_max_bytes)  # the fork's too
     log_path = tmp_path / "split.mcap"
     with _split(n, log_path) as (run, sink):
         for _ in range(6):
