@@ -413,10 +413,7 @@ def _serve(
             gcs_now_s = None
         writer.add(buffer.take())  # the GCS's records come before the sim's of the next tick
         theirs = {name: sent for name, sent in to_companions.items() if name not in mine}
-        late = _send_early(conn, ("ok", theirs))
-        kind, now_s, from_sim, records = writer.wait_for(conn)
-        if late is not None:
-            conn.send_bytes(late)
+        kind, now_s, from_sim, records = _answer_and_wait(conn, writer, ("ok", theirs))
         if kind == "finish":  # the run's companions said goodbye; now these and the GCS
             for name, core in cores:
                 with buffer.lane(name):
@@ -431,24 +428,27 @@ def _serve(
             return
         inboxes = {name: to_companions[name] + from_sim[name] for name, _ in cores}
         to_sim, to_gcs = _step_companions(routes, roles, cores, inboxes, now_s, buffer)
-        late = _send_early(conn, ("ok", to_sim))
-        from_here, records = writer.wait_for(conn)
-        if late is not None:
-            conn.send_bytes(late)
+        from_here, records = _answer_and_wait(conn, writer, ("ok", to_sim))
         writer.add(in_serial_order([*records, *buffer.take()], order))  # both processes'
         gcs_inbox = _in_companion_order({**from_here, **to_gcs}, roles.companions)
         gcs_now_s = now_s
 
 
-def _send_early(conn: multiprocessing.connection.Connection, message: object) -> bytes | None:
-    """Send ``message`` now if it is small (None), else return it pickled, to be sent once
-    the other side's next message is read: a small one always fits the socket's buffer
-    beside another, so this side never blocks while the other blocks sending to it."""
-    blob = bytes(ForkingPickler.dumps(message))
-    if len(blob) > _EARLY_MAX_BYTES:
-        return blob
+def _answer_and_wait(
+    conn: multiprocessing.connection.Connection, writer: _Writer, answer: object
+) -> Any:
+    """Send ``answer`` and return the run's process's next message (``writer`` writing
+    records while it waits). A small answer goes before the wait, so that process finds it
+    when it asks; a large one (over ``_EARLY_MAX_BYTES``) after, once this side has read:
+    two small ones always fit the socket's buffer beside the other side's message, so this
+    side never blocks while the other blocks sending to it."""
+    blob = bytes(ForkingPickler.dumps(answer))
+    if len(blob) <= _EARLY_MAX_BYTES:
+        conn.send_bytes(blob)
+        return writer.wait_for(conn)
+    message = writer.wait_for(conn)
     conn.send_bytes(blob)
-    return None
+    return message
 
 
 def _step_companions(
