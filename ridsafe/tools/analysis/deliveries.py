@@ -15,6 +15,12 @@ drop in deliveries can be traced to its kind before anything is tuned. Per aircr
 - ``landed_s``: for an aircraft that arrived, its first sample on the ground (or disarmed)
   after that: the delivery done and the airspace above the site free again (None: still in
   the air at the end);
+- ``descending_at_end``: for an aircraft that arrived and was still in the air at the end
+  (None for the others), whether it was on its way down: within the arrival radius of its
+  goal and losing at least :data:`DESCENDING_MIN_M_S` of height a second over the last
+  :data:`DESCENT_WINDOW_S` (a descent from cruise height at an autopilot's usual 1.5 m/s,
+  0.5 m/s for the last 10 m, takes 40-60 s); False: off its site or holding its height,
+  what traffic at the site can cause;
 - ``end_from_goal_m``, ``closest_m``: horizontal distance to its goal at the end, and the least;
   ``near_goal_s``: when it first came within :data:`NEAR_GOAL_M` of its goal (None: never);
 - ``holder_sysid`` / ``holder_stage``: for an aircraft held near its goal, the other aircraft
@@ -49,6 +55,8 @@ from ridsafe.tools.analysis.run_arrays import RunLog
 __all__ = [
     "CLOSING_MIN_M_S",
     "CLOSING_WINDOW_S",
+    "DESCENDING_MIN_M_S",
+    "DESCENT_WINDOW_S",
     "HELD_S",
     "LOW_MARGIN_M",
     "NEAR_GOAL_M",
@@ -70,6 +78,10 @@ CLOSING_MIN_M_S = 2.0
 CLOSING_WINDOW_S = 20.0
 #: More than this below its cruise altitude (m) counts as flying low.
 LOW_MARGIN_M = 15.0
+#: An arrived aircraft losing height at least this fast (m/s) over the last
+#: ``DESCENT_WINDOW_S`` is still descending (ArduCopter's final LAND_SPEED is 0.5 m/s).
+DESCENDING_MIN_M_S = 0.3
+DESCENT_WINDOW_S = 5.0
 
 
 class Outcome(enum.Enum):
@@ -92,6 +104,7 @@ class Delivery:
     took_off_s: float | None = None
     arrived_s: float | None = None
     landed_s: float | None = None
+    descending_at_end: bool | None = None
     flight_s: float | None = None
     progress_m_s: float | None = None
     low_fraction: float | None = None
@@ -182,6 +195,9 @@ def _delivery(
     down = np.flatnonzero(~flying[last:, column]) if arrived is not None else np.array([])
     near = np.flatnonzero(from_goal <= NEAR_GOAL_M)
     near_s = float(truth.t_s[near[0]]) if near.size else None
+    descending = None
+    if arrived is not None and not down.size:
+        descending = _descending(truth.t_s, p[:, 2], float(from_goal[-1]), run.arrival_radius_m)
     return Delivery(
         sysid=sysid,
         outcome=_outcome(truth.t_s, from_goal, arrived, near_s),
@@ -189,6 +205,7 @@ def _delivery(
         took_off_s=took_off,
         arrived_s=arrived,
         landed_s=float(truth.t_s[last + int(down[0])]) if down.size else None,
+        descending_at_end=descending,
         flight_s=flight,
         progress_m_s=covered / flight if flight > 0.0 else None,
         low_fraction=low,
@@ -196,6 +213,16 @@ def _delivery(
         closest_m=float(np.nanmin(from_goal)),
         near_goal_s=near_s,
     )
+
+
+def _descending(
+    t_s: FloatArray, up_m: FloatArray, end_from_goal_m: float, arrival_radius_m: float
+) -> bool:
+    """Whether an arrived aircraft still in the air is on its way down over its site."""
+    start = int(np.searchsorted(t_s, t_s[-1] - DESCENT_WINDOW_S))
+    span_s = float(t_s[-1] - t_s[start])
+    sink_m_s = float(up_m[start] - up_m[-1]) / span_s if span_s > 0.0 else 0.0
+    return end_from_goal_m <= arrival_radius_m and sink_m_s >= DESCENDING_MIN_M_S
 
 
 def _outcome(

@@ -139,6 +139,14 @@ def format_deliveries(rows: Sequence[Delivery]) -> str:
         lines.append(
             f"  landed within the run: {len(landing_s)} of the {len(arrived)} that arrived{median}"
         )
+        descending = sum(r.descending_at_end is True for r in arrived)
+        not_descending = [r.sysid for r in arrived if r.descending_at_end is False]
+        if descending or not_descending:
+            which = f" (aircraft {', '.join(map(str, not_descending))})" if not_descending else ""
+            lines.append(
+                f"  in the air at the end: {descending} descending over their sites, "
+                f"{len(not_descending)} not descending{which}"
+            )
     for row in rows:
         if row.outcome is Outcome.DELIVERED:
             continue

@@ -28,6 +28,12 @@ def _lands(t: float) -> tuple[float, float, float]:
     return (300.0, 260.0 - t, 0.0 if t >= 95.0 else 20.0)
 
 
+def _descends(t: float) -> tuple[float, float, float]:
+    """Over its goal (-300, -300) from the start, sinking at 0.8 m/s from 90 m: 10 m up at
+    the end (100 s)."""
+    return (-300.0, -300.0, 90.0 - 0.8 * t)
+
+
 def _run(tmp_path: Path) -> Path:
     aircraft = [
         line((0.0, 0.0, 60.0), (10.0, 0.0, 0.0)),  # 1: delivers at 29 s (10 m short of 300)
@@ -36,6 +42,7 @@ def _run(tmp_path: Path) -> Path:
         _lands,  # 4: descends on a site 10 m from 3's, on the ground at 95 s
         still((0.0, -300.0, 60.0)),  # 5: hovers where it took off
         still((0.0, 400.0, 0.0)),  # 6: never leaves the ground
+        _descends,  # 7: arrived at once, still on its way down at the end
     ]
     goals = [
         (300.0, 0.0, 0.0),
@@ -44,6 +51,7 @@ def _run(tmp_path: Path) -> Path:
         (300.0, 210.0, 0.0),
         (400.0, -300.0, 0.0),
         (0.0, 700.0, 0.0),
+        (-300.0, -300.0, 0.0),
     ]
     extra = [phase(1.0, 4, "cruise"), phase(5.0, 4, "descend"), phase(90.0, 4, "land")]
     spec = RunSpec(aircraft, goals=goals, duration_s=100.0, extra=extra)
@@ -60,6 +68,7 @@ def test_one_aircraft_of_each_outcome_worked_out_by_hand(tmp_path: Path) -> None
         Outcome.DELIVERED,
         Outcome.STALLED,
         Outcome.NOT_LAUNCHED,
+        Outcome.DELIVERED,
     ]
     delivered = rows[1]
     assert delivered.arrived_s == pytest.approx(29.0)
@@ -68,6 +77,7 @@ def test_one_aircraft_of_each_outcome_worked_out_by_hand(tmp_path: Path) -> None
     assert delivered.progress_m_s == pytest.approx(300.0 / 29.0)
     assert delivered.low_fraction == 0.0
     assert delivered.landed_s is None  # still in the air at the end
+    assert delivered.descending_at_end is False  # flew on past its goal at 60 m
     late = rows[2]
     assert late.end_from_goal_m == pytest.approx(100.0)
     assert late.progress_m_s == pytest.approx(500.0 / 100.0)  # 600 m trip, 100 m left
@@ -79,13 +89,17 @@ def test_one_aircraft_of_each_outcome_worked_out_by_hand(tmp_path: Path) -> None
     assert (held.holder_sysid, held.holder_stage) == (4, Stage.ARRIVAL)
     assert rows[4].arrived_s == pytest.approx(40.0)
     assert rows[4].landed_s == pytest.approx(95.0)
+    assert rows[4].descending_at_end is None  # landed
+    assert rows[7].descending_at_end is True
+    assert rows[7].landed_s is None
+    assert late.descending_at_end is None  # did not arrive
     assert rows[5].progress_m_s == pytest.approx(0.0)
     assert rows[6].took_off_s is None
     assert rows[6].trip_m == pytest.approx(300.0)
     counts = outcome_counts(list(rows.values()))
-    assert counts[Outcome.DELIVERED] == 2
-    assert sum(counts.values()) == 6
-    assert compute_metrics(path)["goal_reached_fraction"] == pytest.approx(2 / 6)
+    assert counts[Outcome.DELIVERED] == 3
+    assert sum(counts.values()) == 7
+    assert compute_metrics(path)["goal_reached_fraction"] == pytest.approx(3 / 7)
 
 
 def test_ridsafe_metrics_lists_what_became_of_the_undelivered(
@@ -95,10 +109,12 @@ def test_ridsafe_metrics_lists_what_became_of_the_undelivered(
     code, out, _err = _cli([path, "--deliveries"], capsys)
     assert code == 0
     assert (
-        "deliveries of 6 aircraft: 2 delivered, 1 not launched, 1 held near the goal, 1 late, "
+        "deliveries of 7 aircraft: 3 delivered, 1 not launched, 1 held near the goal, 1 late, "
         "1 stalled en route" in out
     )
-    assert "landed within the run: 1 of the 2 that arrived, median 55.0 s after arriving" in out
+    assert "landed within the run: 1 of the 3 that arrived, median 55.0 s after arriving" in out
+    in_the_air = "in the air at the end: 1 descending over their sites, 1 not descending"
+    assert f"{in_the_air} (aircraft 1)" in out
     lines = [ln.strip() for ln in out.splitlines() if ln.strip().startswith("aircraft ")]
     assert [ln.split(":")[0] for ln in lines] == [f"aircraft {s}" for s in (2, 3, 5, 6)]
     assert "nearest at its goal: aircraft 4 (arrival and landing)" in lines[1]
@@ -106,3 +122,4 @@ def test_ridsafe_metrics_lists_what_became_of_the_undelivered(
     rows = json.loads(out)["deliveries"]
     assert [r["outcome"] for r in rows][:3] == ["delivered", "late", "held near the goal"]
     assert rows[2]["holder_stage"] == "arrival and landing"
+    assert [r["descending_at_end"] for r in rows] == [False, None, None, None, None, None, True]
