@@ -37,7 +37,9 @@ traffic about that stays ``approach_min_separation_m`` away while the aircraft h
 region near, the setpoint is the goal itself (zero velocity): the autopilot's square-root shaper
 brakes onto it, which no held-velocity action can among traffic. Where the goal is reached over
 it at any height (``PlannerInput.goal_any_height``, with ``approach_level``), the radius is
-horizontal and the setpoint the point over the goal at the aircraft's own height. Within
+horizontal and the setpoint the point over the goal at the aircraft's own height; where it
+descends to the goal on the ground over its site (``PlannerInput.descend_to_goal``, with
+``approach_descent``), the radius is horizontal and the setpoint the goal itself. Within
 ``arrival_radius_m`` (3-D) the aircraft is *arrived* (latched) and holds the goal (or lands)
 unless an unsafe region engulfs it; then it evades and comes back. A progress watchdog reports
 ``STUCK`` (and logs a warning once) when the aircraft has not come ``stuck_progress_m`` closer
@@ -239,10 +241,13 @@ class FastMdpPlanner:
             return self._arrival_decision(goal, scene)
         index, status, value = choose_action(scores, actions, cfg)
         stuck = self._watchdog.update(planner_input.t_s, distance)
-        level = cfg.approach_level and planner_input.goal_any_height
-        if level:  # brake onto the point over the goal, at the aircraft's height
-            point = np.array([goal[0], goal[1], p0[2]])
-            point_m, what = float(np.hypot(*(goal - p0)[:2])), "approach over the goal"
+        horizontal_m = float(np.hypot(*(goal - p0)[:2]))
+        if cfg.approach_level and planner_input.goal_any_height:
+            # brake onto the point over the goal, at the aircraft's height
+            over_goal = np.array([goal[0], goal[1], p0[2]])
+            point, point_m, what = over_goal, horizontal_m, "approach over the goal"
+        elif cfg.approach_descent and planner_input.descend_to_goal:
+            point, point_m, what = goal, horizontal_m, "descend onto the goal"
         else:
             point, point_m, what = goal, distance, "approach the goal"
         if point_m <= cfg.approach_radius_m and self._clear_to_approach(status, scores, hover):

@@ -62,6 +62,10 @@ class PlannerInput:
     #: descent, ``companion.arrival_alt_tolerance_m`` unset): the approach may keep the
     #: aircraft's height (``PlannerConfig.approach_level``).
     goal_any_height: bool = False
+    #: The goal is the ground under the aircraft's site and it descends to it over the site
+    #: (the mission's descent): the approach may descend straight onto it
+    #: (``PlannerConfig.approach_descent``).
+    descend_to_goal: bool = False
 
 
 class PlannerStatus(enum.Enum):

@@ -138,6 +138,13 @@ class PlannerConfig:
     # climbed over traffic and reached its site 40 m above its cruise level no longer waits
     # to sink to that level among the aircraft landing nearby before it may arrive.
     approach_level: bool = True
+    # ours: where the goal is the ground under the site and the aircraft descends to it over
+    # the site (PlannerInput.descend_to_goal), the approach radius is horizontal too: over
+    # its site and clear, the setpoint is the goal itself and the autopilot descends straight
+    # onto it. Otherwise, 40-70 m above the site (beyond approach_radius_m in 3-D) it chose
+    # among held actions and drifted 30-60 m off its site keeping d_safe from aircraft
+    # landing at sites nearby (docs/results/dense_traffic.md).
+    approach_descent: bool = True
     arrival_radius_m: float = 10.0
     on_arrival: ArrivalAction = ArrivalAction.HOVER
     ground_down_m: float = 0.0  # NED down of the ground at the goal (home at ground level)
