@@ -183,6 +183,19 @@ _WARM_UP_REGIONS = (
 )
 
 
+def _column_taken(scene: Scene, p0: FloatArray, goal: FloatArray, min_separation_m: float) -> bool:
+    """Is a neighbour predicted within ``min_separation_m`` of the column the aircraft would
+    descend, from its height straight down to ``goal``? (One landing at a site 30-40 m away
+    is: hovering here may keep 60 m from it while it steers about, descending would not.)"""
+    if not scene.nb_ids:
+        return False
+    q = scene.nb_pos_m  # (N, K, 3): every neighbour over the rollout's times
+    horizontal = np.hypot(q[..., 0] - goal[0], q[..., 1] - goal[1])
+    top, bottom = min(p0[2], goal[2]), max(p0[2], goal[2])
+    vertical = np.clip(q[..., 2], top, bottom) - q[..., 2]
+    return bool(np.any(np.hypot(horizontal, vertical) < min_separation_m))
+
+
 def _finite(*vectors: Vec3) -> bool:
     return all(map(math.isfinite, itertools.chain.from_iterable(vectors)))
 
@@ -242,15 +255,20 @@ class FastMdpPlanner:
         index, status, value = choose_action(scores, actions, cfg)
         stuck = self._watchdog.update(planner_input.t_s, distance)
         horizontal_m = float(np.hypot(*(goal - p0)[:2]))
+        descent = cfg.approach_descent and planner_input.descend_to_goal
         if cfg.approach_level and planner_input.goal_any_height:
             # brake onto the point over the goal, at the aircraft's height
             over_goal = np.array([goal[0], goal[1], p0[2]])
             point, point_m, what = over_goal, horizontal_m, "approach over the goal"
-        elif cfg.approach_descent and planner_input.descend_to_goal:
+        elif descent:
             point, point_m, what = goal, horizontal_m, "descend onto the goal"
         else:
             point, point_m, what = goal, distance, "approach the goal"
-        if point_m <= cfg.approach_radius_m and self._clear_to_approach(status, scores, hover):
+        if (
+            point_m <= cfg.approach_radius_m
+            and self._clear_to_approach(status, scores, hover)
+            and not (descent and _column_taken(scene, p0, goal, cfg.approach_min_separation_m))
+        ):
             return PlannerDecision(_vec(point), (0.0, 0.0, 0.0), status, value, what)
         if stuck and status in (PlannerStatus.CRUISE, PlannerStatus.AVOIDING):
             status = PlannerStatus.STUCK

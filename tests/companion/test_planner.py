@@ -312,6 +312,23 @@ def test_an_aircraft_over_its_site_descends_straight_onto_it_beside_traffic() ->
         assert math.hypot(v_north, v_east) > 1.0 and v_east < 0.0
 
 
+def test_no_straight_descent_past_an_aircraft_beside_the_column() -> None:
+    """30 m from its site, an aircraft 80 m from it but 50 m from the column it would descend
+    (the other landing at a site beside this one): hovering here keeps 80 m, descending onto
+    the site would pass it at 50 m, so the descent is no approach but the planner's choice."""
+    goal: Vec3 = (100.0, 0.0, 0.0)
+    here: Vec3 = (70.0, 0.0, -65.0)
+    beside = Neighbour("BESIDE", (150.0, 0.0, -60.0), (0.0, 0.0, 0.0), 10.0, False)
+    inp = dataclasses.replace(_inp(p=here, goal=goal, neighbours=(beside,)), descend_to_goal=True)
+    decision = AwarePlanner().plan(inp)
+    assert decision.detail != "descend onto the goal"
+    assert decision.target_p_ned_m != goal
+    clear = dataclasses.replace(
+        inp, neighbours=(dataclasses.replace(beside, p_ned_m=(170.0, 0.0, -60.0)),)
+    )
+    assert AwarePlanner().plan(clear).detail == "descend onto the goal"  # 70 m from the column
+
+
 def test_watchdog_reports_and_logs_lack_of_progress(caplog: pytest.LogCaptureFixture) -> None:
     dog = ProgressWatchdog(after_s=30.0, progress_m=10.0)
     with caplog.at_level(logging.WARNING, logger="ridsafe.companion.planner"):

@@ -2,9 +2,8 @@
 
 The failure it reproduces: on a path-loss exponent of 3 with 8 aircraft (seed 4 of the
 robustness sweep) the spoofer was alerted at 13.75 s but heard by the same three aircraft for
-a minute, and a track start needed four receivers per claim: no region until 74 s (79 s
-since the descents go straight onto the sites), and the aware planner met the spoofer as
-trust-RID does. A window of three-receiver claims localises
+a minute, and a track start needed four receivers per claim: no region until 74 s, and the
+aware planner met the spoofer as trust-RID does. A window of three-receiver claims localises
 once the receivers have moved; the grid posterior's spread check decides when.
 
 What three receivers give is a rougher region: on synthetic traffic (three receivers
@@ -77,4 +76,4 @@ def test_the_alerted_spoofer_heard_by_three_aircraft_has_a_region_at_once(
     assert default["region_delay_s"] == pytest.approx(0.0)  # the first region at the alert
     four = _fly(tmp_path, 4)
     assert four["alert_time_s"] == pytest.approx(13.75)
-    assert four["region_delay_s"] == pytest.approx(65.5)  # the first region at 79.25 s
+    assert four["region_delay_s"] == pytest.approx(60.5)  # the first region at 74.25 s
