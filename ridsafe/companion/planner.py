@@ -39,7 +39,9 @@ brakes onto it, which no held-velocity action can among traffic. Where the goal 
 it at any height (``PlannerInput.goal_any_height``, with ``approach_level``), the radius is
 horizontal and the setpoint the point over the goal at the aircraft's own height; where it
 descends to the goal on the ground over its site (``PlannerInput.descend_to_goal``, with
-``approach_descent``), the radius is horizontal and the setpoint the goal itself. Within
+``approach_descent``), the radius is horizontal and the setpoint the goal itself, provided
+also no neighbour is predicted within ``approach_min_separation_m`` of the column it would
+descend. Within
 ``arrival_radius_m`` (3-D) the aircraft is *arrived* (latched) and holds the goal (or lands)
 unless an unsafe region engulfs it; then it evades and comes back. A progress watchdog reports
 ``STUCK`` (and logs a warning once) when the aircraft has not come ``stuck_progress_m`` closer

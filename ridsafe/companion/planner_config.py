@@ -140,10 +140,11 @@ class PlannerConfig:
     approach_level: bool = True
     # ours: where the goal is the ground under the site and the aircraft descends to it over
     # the site (PlannerInput.descend_to_goal), the approach radius is horizontal too: over
-    # its site and clear, the setpoint is the goal itself and the autopilot descends straight
-    # onto it. Otherwise, 40-70 m above the site (beyond approach_radius_m in 3-D) it chose
-    # among held actions and drifted 30-60 m off its site keeping d_safe from aircraft
-    # landing at sites nearby (docs/results/dense_traffic.md).
+    # its site, hovering clear and no neighbour predicted within approach_min_separation_m of
+    # the column down to the goal, the setpoint is the goal itself and the autopilot descends
+    # straight onto it. Otherwise, 40-70 m above the site (beyond approach_radius_m in 3-D)
+    # it chose among held actions and drifted 30-60 m off its site keeping d_safe from
+    # aircraft landing at sites nearby (docs/results/dense_traffic.md).
     approach_descent: bool = True
     arrival_radius_m: float = 10.0
     on_arrival: ArrivalAction = ArrivalAction.HOVER

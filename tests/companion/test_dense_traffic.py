@@ -20,7 +20,8 @@
   site but beyond the approach radius in 3-D (the goal on the ground 50-70 m below), an
   aircraft chose among held actions and, keeping d_safe from the one landing next door,
   flew off its site; one never came back to land. Descending straight onto the goal while
-  hovering there stays clear (``planner.approach_descent``), all four land.
+  hovering there stays clear and nobody is near the column down (``planner.approach_descent``),
+  all four land.
 """
 
 from __future__ import annotations
