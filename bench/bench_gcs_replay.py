@@ -42,6 +42,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from ridsafe.common.config import parse_override  # noqa: E402
 from ridsafe.common.logsink import NullSink  # noqa: E402
+from ridsafe.common.runner import freeze_startup_objects  # noqa: E402
 from ridsafe.gcs.calibration.pipeline import make_pipeline  # noqa: E402
 from ridsafe.gcs.pipeline_api import CycleOutput, GcsPipeline, ObservedClaim  # noqa: E402
 from ridsafe.tools.run.lockstep import build  # noqa: E402
@@ -94,6 +95,7 @@ def main() -> None:
     run = build(loaded, "aware", NullSink())
     recording = _Recording(run.gcs.pipeline)
     run.gcs.pipeline = recording
+    freeze_startup_objects()  # as every run does before its loop (tools/run/lockstep.py)
     print(f"{args.config.name}, {args.aircraft} aircraft, seed {args.seed}: flying ...", flush=True)
     while run.t_s < args.duration - 1e-9:
         run.step()
