@@ -101,8 +101,11 @@ class MissionDriver:
     def goal_any_height(self) -> bool:
         """``goal_local`` is reached over it at any height: the cruise point before the
         descent, when arriving asks no height (``arrival_alt_tolerance_m`` unset)."""
-        descending = self.mission.phase is Phase.DESCEND
-        return not descending and self.config.arrival_alt_tolerance_m is None
+        return not self.descending() and self.config.arrival_alt_tolerance_m is None
+
+    def descending(self) -> bool:
+        """``goal_local`` is the ground under the site, reached by descending over it."""
+        return self.mission.phase is Phase.DESCEND
 
     def pad_ned_m(self) -> Vec3 | None:
         """The pad the mission is about to use: its own (home) before take-off, the delivery

@@ -139,7 +139,7 @@ class PlannerDriver:
                 if not r.on_ground  # a radio on the ground: only the pad rule minds it
             ),
             goal_any_height=mission.goal_any_height(),
-            descend_to_goal=mission.phase is Phase.DESCEND,
+            descend_to_goal=mission.descending(),
         )
         start = time.perf_counter()
         decision = self._decide(now_s, planner_input)
