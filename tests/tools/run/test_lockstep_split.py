@@ -3,6 +3,7 @@ that fails or dies is an error that names it, never a quietly shorter log."""
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import dataclasses
 import os
@@ -25,7 +26,7 @@ from ridsafe.tools.run import lockstep, lockstep_split
 from ridsafe.tools.run.lockstep import run_lockstep
 from ridsafe.tools.run.lockstep_split import LaneBuffer, Roles, SplitLockstep, WorkerError
 from ridsafe.tools.run.scenario import load_scenario_file
-from ridsafe.tools.runlog.reader import read_records
+from ridsafe.tools.runlog.reader import LogReadError, ReadStatus, iter_messages, read_records
 from ridsafe.tools.runlog.writer import McapRecorder, RecorderError
 
 pytestmark = pytest.mark.skipif(
@@ -237,12 +238,17 @@ with _split(2, Path({str(log_path)!r})) as (run, _):
 """
     done = subprocess.run([sys.executable, "-c", code], check=False, timeout=60)
     assert done.returncode == -signal.SIGKILL
+    # The orphaned worker finishes the file on its own time: wait until it reads complete
+    # (a file still being written reads as cut off, with what it holds so far).
     deadline = time.monotonic() + 30.0
-    while time.monotonic() < deadline:
-        with contextlib.suppress(Exception):
-            times = [t for topic, t, _ in read_records(log_path) if topic == "/test/handle"]
-            break
+    status = ReadStatus()
+    while not status.complete and time.monotonic() < deadline:
         time.sleep(0.1)
+        with contextlib.suppress(LogReadError):  # not yet created, or not yet MCAP
+            status = ReadStatus()
+            collections.deque(iter_messages(log_path, status), maxlen=0)
+    assert status.complete, status.error
+    times = [t for topic, t, _ in read_records(log_path) if topic == "/test/handle"]
     assert max(times) == 0.5 and times.count(0.5) == 4  # sim, 2 companions and the GCS
 
 
