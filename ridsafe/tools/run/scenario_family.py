@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -271,45 +271,51 @@ def _aimed_line(
     meets most (the first of equals)."""
     spoofer_draw = rng.stream(seed, stream)
     candidates = [_spoofer(spoofer_draw, family) for _ in range(family.spoofer_candidate_lines)]
-    met = [_nominal_encounters(aircraft, c, family.aim_horizon_s, family) for c in candidates]
+    t_s = np.arange(0.0, family.aim_horizon_s, AIM_STEP_S)
+    flights_enu_m = _nominal_flights(aircraft, t_s, family)
+    met = [_nominal_encounters(flights_enu_m, t_s, c, family) for c in candidates]
     return candidates[int(np.argmax(met))]
 
 
+#: The time step (s) of the nominal flights a spoofer's line is aimed at.
+AIM_STEP_S = 0.5
+
+
 def _nominal_encounters(
-    aircraft: tuple[AircraftConfig, ...],
-    spoofer: SpooferConfig,
-    duration_s: float,
-    family: FamilyConfig,
-    step_s: float = 0.5,
+    flights_enu_m: np.ndarray, t_s: np.ndarray, spoofer: SpooferConfig, family: FamilyConfig
 ) -> int:
-    """How many times a nominal benign flight comes within the NMAC radius of the spoofer."""
-    t_s = np.arange(0.0, duration_s, step_s)
+    """How many times the nominal benign flights (``flights_enu_m : (A, T, 3)`` at times
+    ``t_s``, :func:`_nominal_flights`) come within the NMAC radius of the spoofer."""
     assert spoofer.start_enu_m is not None and spoofer.goal_enu_m is not None
     s0, s1 = np.array(spoofer.start_enu_m), np.array(spoofer.goal_enu_m)
     length_m = float(np.linalg.norm(s1 - s0))
     spoofer_enu = s0 + np.outer(np.minimum(t_s * spoofer.speed_m_s, length_m), (s1 - s0) / length_m)
-    events = 0
-    for a in aircraft:
-        inside = np.linalg.norm(_nominal_flight(a, t_s, family) - spoofer_enu, axis=1) < (
-            family.nmac_radius_m
-        )
-        events += int(inside[0]) + int(np.count_nonzero(inside[1:] & ~inside[:-1]))
-    return events
+    distance_m = np.linalg.norm(flights_enu_m - spoofer_enu, axis=2)
+    inside = distance_m < family.nmac_radius_m
+    entries = np.count_nonzero(inside[:, 1:] & ~inside[:, :-1])
+    return int(np.count_nonzero(inside[:, 0])) + int(entries)
 
 
-def _nominal_flight(a: AircraftConfig, t_s: np.ndarray, family: FamilyConfig) -> np.ndarray:
-    """ENU positions (m) of a straight pad-to-delivery flight nobody deflects, at times ``t_s``."""
-    start, goal = np.array(a.start_enu_m), np.array(a.goal_enu_m)
-    trip_m = max(float(np.hypot(*(goal - start)[:2])), 1e-9)
-    flying_s = np.maximum(t_s - a.departure_s - family.nominal_takeoff_s, 0.0)
-    along_m = np.minimum(flying_s * family.nominal_speed_m_s, trip_m)
-    xy = start[:2] + np.outer(along_m, (goal - start)[:2] / trip_m)
-    climb_m = np.minimum(flying_s * family.nominal_climb_m_s, a.cruise_alt_m)
-    descent_m = np.maximum(flying_s - trip_m / family.nominal_speed_m_s, 0.0) * (
+def _nominal_flights(
+    aircraft: Sequence[AircraftConfig], t_s: np.ndarray, family: FamilyConfig
+) -> np.ndarray:
+    """ENU positions (m), ``(A, T, 3)``, of each aircraft's straight pad-to-delivery flight
+    nobody deflects, at times ``t_s``."""
+    start = np.array([a.start_enu_m for a in aircraft], dtype=np.float64).reshape(-1, 3)
+    goal = np.array([a.goal_enu_m for a in aircraft], dtype=np.float64).reshape(-1, 3)
+    departure_s = np.array([a.departure_s for a in aircraft], dtype=np.float64)
+    cruise_m = np.array([a.cruise_alt_m for a in aircraft], dtype=np.float64)[:, None]
+    trip_m = np.maximum(np.hypot(goal[:, 0] - start[:, 0], goal[:, 1] - start[:, 1]), 1e-9)
+    flying_s = np.maximum(t_s - departure_s[:, None] - family.nominal_takeoff_s, 0.0)
+    along_m = np.minimum(flying_s * family.nominal_speed_m_s, trip_m[:, None])
+    heading = (goal - start)[:, :2] / trip_m[:, None]
+    xy = start[:, None, :2] + along_m[:, :, None] * heading[:, None, :]
+    climb_m = np.minimum(flying_s * family.nominal_climb_m_s, cruise_m)
+    descent_m = np.maximum(flying_s - (trip_m / family.nominal_speed_m_s)[:, None], 0.0) * (
         family.nominal_climb_m_s
     )
-    up_m = np.maximum(np.minimum(climb_m, a.cruise_alt_m - descent_m), 0.0)
-    return np.column_stack([xy, up_m])
+    up_m = np.maximum(np.minimum(climb_m, cruise_m - descent_m), 0.0)
+    return np.concatenate([xy, up_m[:, :, None]], axis=2)
 
 
 def _aircraft(

@@ -15,7 +15,7 @@ from ridsafe.tools.run.scenario import load_scenario_file
 from ridsafe.tools.run.scenario_family import (
     FamilyConfig,
     _nominal_encounters,
-    _nominal_flight,
+    _nominal_flights,
     generate,
 )
 
@@ -114,8 +114,10 @@ def test_the_spoofer_aims_at_the_traffic_and_leaves_the_aircraft_alone() -> None
         aimed, plain = generate(BASE, 16, seed, FAMILY), generate(BASE, 16, seed, random_line)
         assert aimed.aircraft == plain.aircraft
         assert aimed.spoofer is not None and plain.spoofer is not None
-        met = _nominal_encounters(aimed.aircraft, aimed.spoofer, 120.0, FAMILY)
-        met_random = _nominal_encounters(plain.aircraft, plain.spoofer, 120.0, FAMILY)
+        t_s = np.arange(0.0, 120.0, 0.5)
+        flights_enu_m = _nominal_flights(aimed.aircraft, t_s, FAMILY)
+        met = _nominal_encounters(flights_enu_m, t_s, aimed.spoofer, FAMILY)
+        met_random = _nominal_encounters(flights_enu_m, t_s, plain.spoofer, FAMILY)
         assert met >= met_random  # the random line is the first candidate
         aimed_met, random_met = aimed_met + met, random_met + met_random
     assert aimed_met >= 1.5 * random_met > 0
@@ -124,7 +126,7 @@ def test_the_spoofer_aims_at_the_traffic_and_leaves_the_aircraft_alone() -> None
 def test_nominal_flight_climbs_cruises_and_lands_on_its_goal() -> None:
     a = generate(BASE, 1, 0, FAMILY).aircraft[0]
     t_s = np.arange(0.0, 200.0, 0.5)
-    enu = _nominal_flight(a, t_s, FAMILY)
+    (enu,) = _nominal_flights([a], t_s, FAMILY)
     assert np.allclose(enu[0], [*a.start_enu_m[:2], 0.0])
     assert np.allclose(enu[-1], [*a.goal_enu_m[:2], 0.0])
     assert enu[:, 2].max() == a.cruise_alt_m
