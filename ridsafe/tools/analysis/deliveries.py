@@ -49,7 +49,11 @@ from numpy.typing import NDArray
 
 from ridsafe.tools.analysis.encounters import airborne
 from ridsafe.tools.analysis.flight_histories import Stage, flight_histories, stage_of, value_at
-from ridsafe.tools.analysis.metrics import DEFAULT_MIN_HEIGHT_M, arrival_times_s
+from ridsafe.tools.analysis.metrics import (
+    DEFAULT_MIN_HEIGHT_M,
+    arrival_times_s,
+    landing_times_s,
+)
 from ridsafe.tools.analysis.run_arrays import RunLog
 
 __all__ = [
@@ -149,9 +153,10 @@ def deliveries(run: RunLog, min_height_m: float = DEFAULT_MIN_HEIGHT_M) -> list[
         return []
     flying = airborne(run.truth.p_enu_m, run.truth.armed, min_height_m)
     arrivals = arrival_times_s(run)
+    landings = landing_times_s(run, arrivals, flying)
     meta = {int(a["sysid"]): a for a in run.meta.get("aircraft") or [] if "sysid" in a}
     rows = [
-        _delivery(run, sysid, meta.get(sysid, {}), arrivals.get(sysid), flying)
+        _delivery(run, sysid, meta.get(sysid, {}), arrivals.get(sysid), landings.get(sysid), flying)
         for sysid in sorted(run.goals_enu_m)
     ]
     held_at = {  # sysid -> the sample from which it was near its goal
@@ -167,6 +172,7 @@ def _delivery(
     sysid: int,
     meta: Mapping[str, Any],
     arrived: float | None,
+    landed: float | None,
     flying: NDArray[np.bool_],
 ) -> Delivery:
     """One aircraft's row, without who held it."""
@@ -192,11 +198,10 @@ def _delivery(
     if cruise is not None and heights.size:
         low = float(np.mean(heights < float(cruise) - LOW_MARGIN_M))
     covered = trip - (0.0 if arrived is not None else float(from_goal[-1]))
-    down = np.flatnonzero(~flying[last:, column]) if arrived is not None else np.array([])
     near = np.flatnonzero(from_goal <= NEAR_GOAL_M)
     near_s = float(truth.t_s[near[0]]) if near.size else None
     descending = None
-    if arrived is not None and not down.size:
+    if arrived is not None and landed is None:
         descending = _descending(truth.t_s, p[:, 2], float(from_goal[-1]), run.arrival_radius_m)
     return Delivery(
         sysid=sysid,
@@ -204,7 +209,7 @@ def _delivery(
         trip_m=trip,
         took_off_s=took_off,
         arrived_s=arrived,
-        landed_s=float(truth.t_s[last + int(down[0])]) if down.size else None,
+        landed_s=landed,
         descending_at_end=descending,
         flight_s=flight,
         progress_m_s=covered / flight if flight > 0.0 else None,

@@ -32,6 +32,11 @@ becomes arrays (truth interpolation) in :mod:`ridsafe.tools.analysis.run_arrays`
   horizontal position came within the arrival radius of ``goal_enu_m`` (``/run/meta``'s
   ``scenario.companion.arrival_radius_m``, else ``scenario.planner.arrival_radius_m``, else
   10 m).
+- ``landed_fraction``: fraction of those aircraft that also touched down after arriving:
+  a truth sample not airborne (disarmed, or below the airborne height) at or after its
+  arrival, before the run ended (a descent from cruise height takes 40-60 s, so in a short
+  run it counts the deliveries finished, where ``goal_reached_fraction`` counts those
+  begun).
 - ``alert_time_s``: time of the first ``raised`` alert for the spoofer's serial.
 - ``detection_delay_s``: ``alert_time_s`` minus the time the spoofer's broadcasts had been
   heard by ``DETECTION_RECEIVERS`` (4) distinct aircraft (``/radio/receptions``, any RID
@@ -80,6 +85,7 @@ __all__ = [
     "compute_metrics",
     "containment_samples",
     "distance_to_spoofer_m",
+    "landing_times_s",
     "localisation_errors",
     "mahalanobis2",
 ]
@@ -101,6 +107,7 @@ METRIC_KEYS: tuple[str, ...] = (
     "max_ellipsoid_radius_m",
     "min_distance_to_spoofer_m",
     "goal_reached_fraction",
+    "landed_fraction",
     "alert_time_s",
     "detection_delay_s",
     "region_delay_s",
@@ -288,12 +295,34 @@ def arrival_times_s(run: RunLog) -> dict[int, float | None]:
     return arrivals
 
 
-def _goal_fraction(run: RunLog) -> float | None:
+def landing_times_s(
+    run: RunLog, arrivals: dict[int, float | None], flying: BoolArray
+) -> dict[int, float | None]:
+    """Benign sysid -> its first truth time on the ground (``flying`` False) at or after its
+    arrival (``arrivals``, :func:`arrival_times_s`); None: not arrived, or still airborne."""
+    truth = run.truth
+    landings: dict[int, float | None] = {}
+    for sysid, arrived in arrivals.items():
+        column = truth.column(sysid)
+        if arrived is None or column is None:
+            landings[sysid] = None
+            continue
+        first = int(np.searchsorted(truth.t_s, arrived))
+        down = np.flatnonzero(~flying[first:, column])
+        landings[sysid] = float(truth.t_s[first + int(down[0])]) if down.size else None
+    return landings
+
+
+def _goal_fractions(run: RunLog, min_height_m: float) -> tuple[float | None, float | None]:
+    """``goal_reached_fraction`` and ``landed_fraction``."""
     if not run.goals_enu_m or run.truth.t_s.size == 0:
-        return None
+        return None, None
     arrivals = arrival_times_s(run)
+    flying = airborne(run.truth.p_enu_m, run.truth.armed, min_height_m)
+    landings = landing_times_s(run, arrivals, flying)
     reached = sum(1 for sysid in run.goals_enu_m if arrivals.get(sysid) is not None)
-    return reached / len(run.goals_enu_m)
+    landed = sum(1 for sysid in run.goals_enu_m if landings.get(sysid) is not None)
+    return reached / len(run.goals_enu_m), landed / len(run.goals_enu_m)
 
 
 def compute_metrics(
@@ -305,6 +334,7 @@ def compute_metrics(
     _t, contained = containment_samples(run)
     _te, errors = localisation_errors(run)
     distance = distance_to_spoofer_m(run, min_height_m)
+    goal_reached, landed = _goal_fractions(run, min_height_m)
     end = run.end or {}
     wall = end.get("wall_clock_s")
     metrics: Metrics = {
@@ -318,7 +348,8 @@ def compute_metrics(
         "min_distance_to_spoofer_m": _or_none(float(np.nanmin(distance)))
         if np.isfinite(distance).any()
         else None,
-        "goal_reached_fraction": _goal_fraction(run),
+        "goal_reached_fraction": goal_reached,
+        "landed_fraction": landed,
         "alert_time_s": alert_time_s(run),
         "detection_delay_s": detection_delay_s(run),
         "region_delay_s": region_delay_s(run),

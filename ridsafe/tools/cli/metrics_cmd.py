@@ -49,6 +49,7 @@ _DISPLAY: dict[str, tuple[str, str, str]] = {
     "max_ellipsoid_radius_m": ("max ellipsoid radius", "m", ".1f"),
     "min_distance_to_spoofer_m": ("min distance to spoofer", "m", ".1f"),
     "goal_reached_fraction": ("goal reached", "fraction", ".3f"),
+    "landed_fraction": ("landed after arriving", "fraction", ".3f"),
     "alert_time_s": ("first alert", "s", ".2f"),
     "detection_delay_s": ("alert after 4 aircraft heard it", "s", ".2f"),
     "region_delay_s": ("first region after the alert", "s", ".2f"),

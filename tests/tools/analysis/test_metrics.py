@@ -4,6 +4,7 @@ with the real recorder, metrics checked against numbers worked out by hand."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import shutil
@@ -387,6 +388,24 @@ def test_goal_reached_fraction_uses_horizontal_distance_and_the_arrival_radius(
     assert metrics_of(tmp_path, RunSpec([a, b], goals=goals))["goal_reached_fraction"] == 0.5
     wide = RunSpec([a, b], goals=goals, scenario={"companion": {"arrival_radius_m": 20.0}})
     assert compute_metrics(write_run(tmp_path / "wide.mcap", wide))["goal_reached_fraction"] == 1.0
+
+
+def test_landed_fraction_counts_touch_downs_after_arriving(tmp_path: Path) -> None:
+    def arrive_then_descend(rate_m_s: float) -> Position:
+        """Arrives over (100, y, 40) at 20 s, then sinks at ``rate_m_s`` (stops at 0)."""
+        return lambda t: (min(5.0 * t, 100.0), 0.0, max(40.0 - rate_m_s * max(t - 20.0, 0.0), 0.0))
+
+    lands = arrive_then_descend(1.0)  # on the ground at 60 s, within the run
+    sinks_slowly = arrive_then_descend(0.5)  # 10 m up at the end
+    hovers = line((0.0, 0.0, 40.0), (5.0, 0.0, 0.0))
+    down_short = line((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))  # on the ground, never arrives
+    goals = [(100.0, 0.0, 0.0), (100.0, 0.0, 0.0), (100.0, 0.0, 0.0), (100.0, 0.0, 0.0)]
+    spec = RunSpec([lands, sinks_slowly, hovers, down_short], duration_s=80.0, goals=goals)
+    metrics = metrics_of(tmp_path, spec)
+    assert metrics["goal_reached_fraction"] == 0.75
+    assert metrics["landed_fraction"] == 0.25
+    disarmed = dataclasses.replace(spec, armed=lambda sysid, t: not (sysid == 3 and t > 30.0))
+    assert compute_metrics(write_run(tmp_path / "b.mcap", disarmed))["landed_fraction"] == 0.5
 
 
 def test_cost_metrics_and_percentiles(tmp_path: Path) -> None:
