@@ -10,6 +10,7 @@ except under ``if TYPE_CHECKING:``. Importing ``a.b.c`` also depends on the pack
 from __future__ import annotations
 
 import ast
+import functools
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -42,12 +43,19 @@ def _import_nodes(tree: ast.AST) -> Iterator[ast.Import | ast.ImportFrom]:
         yield from _import_nodes(node)
 
 
+@functools.cache
+def _tree(path: Path) -> ast.Module:
+    """The parsed source of ``path``, once per test session (the generated dialect alone takes
+    a good part of a second)."""
+    return ast.parse(path.read_text(encoding="utf-8"))
+
+
 def imported(path: Path, known: set[str]) -> set[str]:
     """The project modules ``path`` imports (with their parent packages)."""
     name = module_name(path)
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     targets: set[str] = set()
-    for node in _import_nodes(ast.parse(path.read_text(encoding="utf-8"))):
+    for node in _import_nodes(_tree(path)):
         if isinstance(node, ast.Import):
             targets.update(alias.name for alias in node.names)
             continue
@@ -69,7 +77,8 @@ def imported(path: Path, known: set[str]) -> set[str]:
     return found
 
 
-def graph(*folders: str) -> dict[str, set[str]]:
+@functools.cache
+def graph(*folders: str) -> dict[str, set[str]]:  # read only: shared by the tests
     paths = [p for folder in folders for p in sorted((ROOT / folder).rglob("*.py"))]
     known = {module_name(p) for p in paths}
     return {module_name(p): imported(p, known) for p in paths}
@@ -141,7 +150,7 @@ def test_common_imports_no_app_and_nothing_imports_tools_but_tools() -> None:
 def test_nothing_in_ridsafe_or_bench_imports_tests() -> None:
     for folder in ("ridsafe", "bench"):
         for path in sorted((ROOT / folder).rglob("*.py")):
-            for node in _import_nodes(ast.parse(path.read_text(encoding="utf-8"))):
+            for node in _import_nodes(_tree(path)):
                 names = (
                     [a.name for a in node.names]
                     if isinstance(node, ast.Import)
