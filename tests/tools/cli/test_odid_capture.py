@@ -160,9 +160,8 @@ def test_a_reader_that_leaves_early_ends_the_command_quietly(tmp_path: Path) -> 
     """``ridsafe odid capture FILE | head -1``: no BrokenPipeError traceback, exit 141 (as a
     shell reports SIGPIPE), through a real pipe."""
     pack = b.location_pack(LOCATIONS[0], BASIC)
-    items = [
-        b.Timed(0.01 * i, b.beacon("02:00:00:00:00:01", i % 256, pack, -61)) for i in range(4000)
-    ]
+    beacons = [bytes(b.beacon("02:00:00:00:00:01", counter, pack, -61)) for counter in range(256)]
+    items = [b.Timed(0.01 * i, beacons[i % 256]) for i in range(4000)]  # megabytes of lines
     capture = b.write_pcapng(tmp_path / "many.pcapng", items, b.LINKTYPE_RADIOTAP)
     argv = [sys.executable, "-m", "ridsafe.tools.cli", "odid", "capture", str(capture)]
     proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
