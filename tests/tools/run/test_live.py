@@ -15,6 +15,7 @@ import pytest
 from ridsafe.common import topics
 from ridsafe.tools.run import live
 from ridsafe.tools.runlog.reader import read_records
+from tests.signals import keyboard_interrupt_on_sigint
 from tests.tools.run.live_runs import start_live_run
 from tests.tools.run.output_watch import OutputWatch, wait_for_text
 
@@ -85,7 +86,8 @@ def test_a_crashed_child_stops_the_run_with_its_name_and_log(tmp_path: Path) -> 
         live.Child("fragile", [sys.executable, "-c", crash], tmp_path / "b.log"),
     ]  # fmt: skip
     started = time.monotonic()
-    outcome = live.supervise(children, duration_s=60.0, speed=1.0, t0_unix=time.time())
+    with keyboard_interrupt_on_sigint():  # the steady child stops on the SIGINT sent to it
+        outcome = live.supervise(children, duration_s=60.0, speed=1.0, t0_unix=time.time())
     assert time.monotonic() - started < 20.0  # not a hang
     assert outcome.status == "failed"
     assert "fragile exited with code 3" in outcome.reason and "boom" in outcome.reason
