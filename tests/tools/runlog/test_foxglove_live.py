@@ -98,7 +98,10 @@ async def connect(port: int, timeout_s: float) -> Client:
     while True:
         try:
             connection = await websockets.connect(
-                f"ws://127.0.0.1:{port}", subprotocols=list(SUBPROTOCOLS), max_size=None
+                f"ws://127.0.0.1:{port}",
+                subprotocols=list(SUBPROTOCOLS),
+                max_size=None,
+                close_timeout=1.0,  # a server busy with its run may never answer the close
             )
             break
         except OSError:
@@ -178,7 +181,8 @@ def test_ridsafe_run_serves_its_channels_live(tmp_path: Path) -> None:
     console = tmp_path / "console.txt"  # a file: an unread pipe would fill and stall the run
     run = subprocess.Popen(
         [sys.executable, "-m", "ridsafe.tools.cli", "run", "--mode", "lockstep",
-         "--foxglove", f"127.0.0.1:{port}", "--duration", "120", "--out", str(tmp_path / "out")],
+         "--foxglove", f"127.0.0.1:{port}", "--aircraft", "4", "--duration", "120",
+         "--out", str(tmp_path / "out")],
         cwd=ROOT, stdout=console.open("w"), stderr=subprocess.STDOUT, text=True,
     )  # fmt: skip
 
