@@ -13,14 +13,16 @@ drop in deliveries can be traced to its kind before anything is tuned. Per aircr
 - ``low_fraction``: the part of that flight spent more than :data:`LOW_MARGIN_M` below its
   cruise altitude (the climb from the pad included);
 - ``landed_s``: for an aircraft that arrived, its first sample on the ground (or disarmed)
-  after that: the delivery done and the airspace above the site free again (None: still in
-  the air at the end);
+  on its site (within the arrival radius) after that: the delivery done and the airspace
+  above the site free again (None: still in the air at the end, or down beside its site);
 - ``descending_at_end``: for an aircraft that arrived and was still in the air at the end
   (None for the others), whether it was on its way down: within the arrival radius of its
   goal and losing at least :data:`DESCENDING_MIN_M_S` of height a second over the last
   :data:`DESCENT_WINDOW_S` (a descent from cruise height at an autopilot's usual 1.5 m/s,
   0.5 m/s for the last 10 m, takes 40-60 s); False: off its site or holding its height,
   what traffic at the site can cause;
+- ``down_beside_site``: for an aircraft that arrived, whether it ended on the ground off its
+  site (beyond the arrival radius): a package delivered to the wrong place;
 - ``end_from_goal_m``, ``closest_m``: horizontal distance to its goal at the end, and the least;
   ``near_goal_s``: when it first came within :data:`NEAR_GOAL_M` of its goal (None: never);
 - ``holder_sysid`` / ``holder_stage``: for an aircraft held near its goal, the other aircraft
@@ -109,6 +111,7 @@ class Delivery:
     arrived_s: float | None = None
     landed_s: float | None = None
     descending_at_end: bool | None = None
+    down_beside_site: bool = False
     flight_s: float | None = None
     progress_m_s: float | None = None
     low_fraction: float | None = None
@@ -200,9 +203,13 @@ def _delivery(
     covered = trip - (0.0 if arrived is not None else float(from_goal[-1]))
     near = np.flatnonzero(from_goal <= NEAR_GOAL_M)
     near_s = float(truth.t_s[near[0]]) if near.size else None
-    descending = None
+    descending, beside = None, False
     if arrived is not None and landed is None:
-        descending = _descending(truth.t_s, p[:, 2], float(from_goal[-1]), run.arrival_radius_m)
+        if flying[-1, column]:
+            end_from_goal = float(from_goal[-1])
+            descending = _descending(truth.t_s, p[:, 2], end_from_goal, run.arrival_radius_m)
+        else:
+            beside = True
     return Delivery(
         sysid=sysid,
         outcome=_outcome(truth.t_s, from_goal, arrived, near_s),
@@ -211,6 +218,7 @@ def _delivery(
         arrived_s=arrived,
         landed_s=landed,
         descending_at_end=descending,
+        down_beside_site=beside,
         flight_s=flight,
         progress_m_s=covered / flight if flight > 0.0 else None,
         low_fraction=low,

@@ -32,11 +32,12 @@ becomes arrays (truth interpolation) in :mod:`ridsafe.tools.analysis.run_arrays`
   horizontal position came within the arrival radius of ``goal_enu_m`` (``/run/meta``'s
   ``scenario.companion.arrival_radius_m``, else ``scenario.planner.arrival_radius_m``, else
   10 m).
-- ``landed_fraction``: fraction of those aircraft that also touched down after arriving:
-  a truth sample not airborne (disarmed, or below the airborne height) at or after its
-  arrival, before the run ended (a descent from cruise height takes 40-60 s, so in a short
-  run it counts the deliveries finished, where ``goal_reached_fraction`` counts those
-  begun).
+- ``landed_fraction``: fraction of those aircraft that also touched down on their sites
+  after arriving: a truth sample not airborne (disarmed, or below the airborne height) and
+  horizontally within the arrival radius of the goal, at or after the arrival, before the
+  run ended (an aircraft down beside its site has not delivered). A descent from cruise
+  height takes 40-60 s, so in a short run it counts the deliveries finished, where
+  ``goal_reached_fraction`` counts those begun.
 - ``alert_time_s``: time of the first ``raised`` alert for the spoofer's serial.
 - ``detection_delay_s``: ``alert_time_s`` minus the time the spoofer's broadcasts had been
   heard by ``DETECTION_RECEIVERS`` (4) distinct aircraft (``/radio/receptions``, any RID
@@ -298,17 +299,23 @@ def arrival_times_s(run: RunLog) -> dict[int, float | None]:
 def landing_times_s(
     run: RunLog, arrivals: dict[int, float | None], flying: BoolArray
 ) -> dict[int, float | None]:
-    """Benign sysid -> its first truth time on the ground (``flying`` False) at or after its
-    arrival (``arrivals``, :func:`arrival_times_s`); None: not arrived, or still airborne."""
+    """Benign sysid -> its first truth time on the ground (``flying`` False) on its site
+    (horizontally within the arrival radius of its goal) at or after its arrival
+    (``arrivals``, :func:`arrival_times_s`); None: not arrived, still airborne, or down
+    beside its site."""
     truth = run.truth
     landings: dict[int, float | None] = {}
     for sysid, arrived in arrivals.items():
         column = truth.column(sysid)
-        if arrived is None or column is None:
+        goal = run.goals_enu_m.get(sysid)
+        if arrived is None or column is None or goal is None:
             landings[sysid] = None
             continue
         first = int(np.searchsorted(truth.t_s, arrived))
-        down = np.flatnonzero(~flying[first:, column])
+        p = truth.p_enu_m[first:, column]
+        with np.errstate(invalid="ignore"):
+            on_site = np.hypot(p[:, 0] - goal[0], p[:, 1] - goal[1]) <= run.arrival_radius_m
+        down = np.flatnonzero(~flying[first:, column] & on_site)
         landings[sysid] = float(truth.t_s[first + int(down[0])]) if down.size else None
     return landings
 

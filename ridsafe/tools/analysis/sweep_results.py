@@ -109,7 +109,7 @@ ROWS: tuple[Row, ...] = (
     Row("wall_clock_s", "Wall clock (s)", COST, 2),
     Row("gcs_compute_s", "GCS compute (s)", COST, 2),
     Row("goal_reached_fraction", "Goal reached (fraction)", EXTRA),
-    Row("landed_fraction", "Landed after arriving (fraction)", EXTRA),
+    Row("landed_fraction", "Landed on the site (fraction)", EXTRA),
     Row("alert_time_s", "Detection time (s)", EXTRA, 2),
     Row("detection_delay_s", "Detection delay after 4 aircraft heard it (s)", EXTRA, 2),
     Row("detection_delay_s", "Detection delay, median (s)", EXTRA, 2, "median"),

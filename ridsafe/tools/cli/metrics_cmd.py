@@ -49,7 +49,7 @@ _DISPLAY: dict[str, tuple[str, str, str]] = {
     "max_ellipsoid_radius_m": ("max ellipsoid radius", "m", ".1f"),
     "min_distance_to_spoofer_m": ("min distance to spoofer", "m", ".1f"),
     "goal_reached_fraction": ("goal reached", "fraction", ".3f"),
-    "landed_fraction": ("landed after arriving", "fraction", ".3f"),
+    "landed_fraction": ("landed on its site", "fraction", ".3f"),
     "alert_time_s": ("first alert", "s", ".2f"),
     "detection_delay_s": ("alert after 4 aircraft heard it", "s", ".2f"),
     "region_delay_s": ("first region after the alert", "s", ".2f"),
@@ -137,8 +137,15 @@ def format_deliveries(rows: Sequence[Delivery]) -> str:
         median = (
             f", median {statistics.median(landing_s):.1f} s after arriving" if landing_s else ""
         )
+        beside = [r.sysid for r in arrived if r.down_beside_site]
+        off_site = (
+            f"; {len(beside)} down beside their sites (aircraft {', '.join(map(str, beside))})"
+            if beside
+            else ""
+        )
         lines.append(
-            f"  landed within the run: {len(landing_s)} of the {len(arrived)} that arrived{median}"
+            f"  landed within the run: {len(landing_s)} of the {len(arrived)} that arrived"
+            f"{median}{off_site}"
         )
         descending = sum(r.descending_at_end is True for r in arrived)
         not_descending = [r.sysid for r in arrived if r.descending_at_end is False]

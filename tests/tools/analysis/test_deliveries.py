@@ -24,8 +24,14 @@ def _held(t: float) -> tuple[float, float, float]:
 
 def _lands(t: float) -> tuple[float, float, float]:
     """Slides south at 1 m/s from (300, 260) at 20 m (within 10 m of its goal (300, 210) from
-    40 s on) and touches down at 95 s."""
-    return (300.0, 260.0 - t, 0.0 if t >= 95.0 else 20.0)
+    40 s on), stops over it at 50 s and touches down there at 95 s."""
+    return (300.0, max(260.0 - t, 210.0), 0.0 if t >= 95.0 else 20.0)
+
+
+def _down_beside(t: float) -> tuple[float, float, float]:
+    """Over its goal (500, -500) at 20 m from the start, pushed east at 1 m/s, down 60 m
+    beside it at 60 s."""
+    return (500.0 + min(t, 60.0), -500.0, 0.0 if t >= 60.0 else 20.0)
 
 
 def _descends(t: float) -> tuple[float, float, float]:
@@ -43,6 +49,7 @@ def _run(tmp_path: Path) -> Path:
         still((0.0, -300.0, 60.0)),  # 5: hovers where it took off
         still((0.0, 400.0, 0.0)),  # 6: never leaves the ground
         _descends,  # 7: arrived at once, still on its way down at the end
+        _down_beside,  # 8: arrived at once, landed 60 m beside its site
     ]
     goals = [
         (300.0, 0.0, 0.0),
@@ -52,6 +59,7 @@ def _run(tmp_path: Path) -> Path:
         (400.0, -300.0, 0.0),
         (0.0, 700.0, 0.0),
         (-300.0, -300.0, 0.0),
+        (500.0, -500.0, 0.0),
     ]
     extra = [phase(1.0, 4, "cruise"), phase(5.0, 4, "descend"), phase(90.0, 4, "land")]
     spec = RunSpec(aircraft, goals=goals, duration_s=100.0, extra=extra)
@@ -68,6 +76,7 @@ def test_one_aircraft_of_each_outcome_worked_out_by_hand(tmp_path: Path) -> None
         Outcome.DELIVERED,
         Outcome.STALLED,
         Outcome.NOT_LAUNCHED,
+        Outcome.DELIVERED,
         Outcome.DELIVERED,
     ]
     delivered = rows[1]
@@ -92,14 +101,19 @@ def test_one_aircraft_of_each_outcome_worked_out_by_hand(tmp_path: Path) -> None
     assert rows[4].descending_at_end is None  # landed
     assert rows[7].descending_at_end is True
     assert rows[7].landed_s is None
+    assert rows[8].arrived_s == 0.0 and rows[8].landed_s is None  # not on its site
+    assert rows[8].down_beside_site and rows[8].descending_at_end is None
+    assert not any(rows[s].down_beside_site for s in range(1, 8))
     assert late.descending_at_end is None  # did not arrive
     assert rows[5].progress_m_s == pytest.approx(0.0)
     assert rows[6].took_off_s is None
     assert rows[6].trip_m == pytest.approx(300.0)
     counts = outcome_counts(list(rows.values()))
-    assert counts[Outcome.DELIVERED] == 3
-    assert sum(counts.values()) == 7
-    assert compute_metrics(path)["goal_reached_fraction"] == pytest.approx(3 / 7)
+    assert counts[Outcome.DELIVERED] == 4
+    assert sum(counts.values()) == 8
+    metrics = compute_metrics(path)
+    assert metrics["goal_reached_fraction"] == pytest.approx(4 / 8)
+    assert metrics["landed_fraction"] == pytest.approx(1 / 8)  # aircraft 4 only
 
 
 def test_ridsafe_metrics_lists_what_became_of_the_undelivered(
@@ -109,10 +123,13 @@ def test_ridsafe_metrics_lists_what_became_of_the_undelivered(
     code, out, _err = _cli([path, "--deliveries"], capsys)
     assert code == 0
     assert (
-        "deliveries of 7 aircraft: 3 delivered, 1 not launched, 1 held near the goal, 1 late, "
+        "deliveries of 8 aircraft: 4 delivered, 1 not launched, 1 held near the goal, 1 late, "
         "1 stalled en route" in out
     )
-    assert "landed within the run: 1 of the 3 that arrived, median 55.0 s after arriving" in out
+    assert (
+        "landed within the run: 1 of the 4 that arrived, median 55.0 s after arriving; "
+        "1 down beside their sites (aircraft 8)" in out
+    )
     in_the_air = "in the air at the end: 1 descending over their sites, 1 not descending"
     assert f"{in_the_air} (aircraft 1)" in out
     lines = [ln.strip() for ln in out.splitlines() if ln.strip().startswith("aircraft ")]
@@ -122,4 +139,5 @@ def test_ridsafe_metrics_lists_what_became_of_the_undelivered(
     rows = json.loads(out)["deliveries"]
     assert [r["outcome"] for r in rows][:3] == ["delivered", "late", "held near the goal"]
     assert rows[2]["holder_stage"] == "arrival and landing"
-    assert [r["descending_at_end"] for r in rows] == [False, None, None, None, None, None, True]
+    assert [r["descending_at_end"] for r in rows] == [False, *[None] * 5, True, None]
+    assert [r["down_beside_site"] for r in rows] == [False] * 7 + [True]

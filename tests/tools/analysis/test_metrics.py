@@ -390,22 +390,28 @@ def test_goal_reached_fraction_uses_horizontal_distance_and_the_arrival_radius(
     assert compute_metrics(write_run(tmp_path / "wide.mcap", wide))["goal_reached_fraction"] == 1.0
 
 
-def test_landed_fraction_counts_touch_downs_after_arriving(tmp_path: Path) -> None:
-    def arrive_then_descend(rate_m_s: float) -> Position:
-        """Arrives over (100, y, 40) at 20 s, then sinks at ``rate_m_s`` (stops at 0)."""
-        return lambda t: (min(5.0 * t, 100.0), 0.0, max(40.0 - rate_m_s * max(t - 20.0, 0.0), 0.0))
+def test_landed_fraction_counts_touch_downs_on_the_site_after_arriving(tmp_path: Path) -> None:
+    def arrive_then_descend(rate_m_s: float, drift_m_s: float = 0.0) -> Position:
+        """Arrives over (100, 0, 40) at 20 s, then sinks at ``rate_m_s`` (stops at 0),
+        drifting east at ``drift_m_s``."""
+        return lambda t: (
+            min(5.0 * t, 100.0) + drift_m_s * max(t - 20.0, 0.0),
+            0.0,
+            max(40.0 - rate_m_s * max(t - 20.0, 0.0), 0.0),
+        )
 
-    lands = arrive_then_descend(1.0)  # on the ground at 60 s, within the run
+    lands = arrive_then_descend(1.0)  # on the ground over its site at 60 s
     sinks_slowly = arrive_then_descend(0.5)  # 10 m up at the end
-    hovers = line((0.0, 0.0, 40.0), (5.0, 0.0, 0.0))
-    down_short = line((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))  # on the ground, never arrives
-    goals = [(100.0, 0.0, 0.0), (100.0, 0.0, 0.0), (100.0, 0.0, 0.0), (100.0, 0.0, 0.0)]
-    spec = RunSpec([lands, sinks_slowly, hovers, down_short], duration_s=80.0, goals=goals)
+    hovers = arrive_then_descend(0.0)
+    pushed_off = arrive_then_descend(1.0, drift_m_s=0.5)  # down 20 m beside its site
+    down_short = still((0.0, 0.0, 0.0))  # on the ground, never arrives
+    aircraft = [lands, sinks_slowly, hovers, pushed_off, down_short]
+    spec = RunSpec(aircraft, duration_s=80.0, goals=[(100.0, 0.0, 0.0)] * 5)
     metrics = metrics_of(tmp_path, spec)
-    assert metrics["goal_reached_fraction"] == 0.75
-    assert metrics["landed_fraction"] == 0.25
+    assert metrics["goal_reached_fraction"] == 0.8
+    assert metrics["landed_fraction"] == 0.2
     disarmed = dataclasses.replace(spec, armed=lambda sysid, t: not (sysid == 3 and t > 30.0))
-    assert compute_metrics(write_run(tmp_path / "b.mcap", disarmed))["landed_fraction"] == 0.5
+    assert compute_metrics(write_run(tmp_path / "b.mcap", disarmed))["landed_fraction"] == 0.4
 
 
 def test_cost_metrics_and_percentiles(tmp_path: Path) -> None:
