@@ -222,8 +222,17 @@ def _goal_reached(f: FlightStatus, c: CompanionConfig, entered_s: float) -> bool
 
 
 def _low_enough(f: FlightStatus, c: CompanionConfig, entered_s: float) -> bool:
-    """Low enough to hand the landing over, and the delivery pad clear (held otherwise)."""
-    return f.pad_clear and f.altitude_m is not None and f.altitude_m <= c.land_handover_alt_m
+    """Low enough to hand the landing over, over the site (horizontally within
+    ``arrival_radius_m``: the autopilot's LAND comes straight down, so an aircraft traffic
+    pushed off its site in the descent would deliver beside it), and the delivery pad clear
+    (held otherwise: the planner brings it back first)."""
+    return (
+        f.pad_clear
+        and f.altitude_m is not None
+        and f.altitude_m <= c.land_handover_alt_m
+        and f.goal_distance_h_m is not None
+        and f.goal_distance_h_m <= c.arrival_radius_m
+    )
 
 
 def _settled(f: FlightStatus, c: CompanionConfig, entered_s: float) -> bool:

@@ -233,6 +233,20 @@ def test_arrival_lands_when_configured_and_land_ends_on_disarm() -> None:
     assert _phase(mission) is Phase.DONE
 
 
+def test_the_landing_is_handed_over_only_over_the_site() -> None:
+    """Pushed off its site in the descent, the aircraft is low enough but 20 m away: LAND
+    would come straight down beside the site, so the planner brings it back first."""
+    mission = Mission(replace(CompanionConfig(), on_arrival=OnArrival.LAND), SYSID)
+    mission.phase = Phase.DESCEND
+    assert mission.step(1.0, FlightStatus(True, 1.0, True, 11.0, 20.0, 11.0, 1.0)) == []
+    assert mission.phase is Phase.DESCEND
+    assert mission.step(2.0, FlightStatus(True, 2.0, True, 11.0, None, None, 1.0)) == []
+    assert mission.phase is Phase.DESCEND  # no position yet: not over the site either
+    sent = mission.step(3.0, FlightStatus(True, 3.0, True, 11.0, 4.0, 11.0, 1.0))
+    assert _phase(mission) is Phase.LAND
+    assert [c.command for c in sent] == [MavCmd.NAV_LAND]
+
+
 def _phase(mission: Mission) -> Phase:
     """The phase now (a call, so the type checker does not carry an earlier narrowing)."""
     return mission.phase
