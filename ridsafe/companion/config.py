@@ -122,6 +122,10 @@ class CompanionConfig:
     # Aircraft whose Remote ID puts them on the ground (within 1 m of home level, still) are
     # not handed to the planner as traffic (planner_driver.py); False hands every claim.
     ignore_grounded_traffic: bool = False
+    # The same in the descent onto the site only: an aircraft landing among delivery sites
+    # tens of metres apart otherwise holds d_safe (100 m) from the aircraft already delivered
+    # beside its site, 30-60 m off its own, until the run ends (docs/results/dense_traffic.md).
+    landing_ignores_grounded_traffic: bool = True
     # Dense traffic (companion/traffic_gate.py): while at least traffic_gate.min_airborne
     # airborne aircraft are heard, the planner sees only those on a collision course or near;
     # min_airborne 0 (the default) hands every claim.

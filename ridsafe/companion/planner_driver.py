@@ -11,6 +11,9 @@ logged and counted.
 With ``ignore_grounded_traffic`` the neighbours that claim to stand on the ground (parked on
 their pads, or delivered) are left out: they are no hazard to an aircraft in the air, and
 among dense traffic the planner otherwise crawls past the aircraft parked at a depot. With
+``landing_ignores_grounded_traffic`` (the default) the same in the descent onto the site
+only: beside sites tens of metres apart the aircraft already delivered would otherwise keep
+a landing aircraft d_safe away from its own. With
 ``traffic_gate.min_airborne`` > 0, once that many airborne aircraft are heard, only those on a
 collision course or near are handed over (``traffic_gate``).
 Every decision goes to ``/companion/decisions``. With ``pad_clearance_m`` > 0 it also tells
@@ -88,6 +91,7 @@ class PlannerDriver:
         self._pad_ceiling_m = config.pad_ceiling_m
         self._pad_timer = Periodic(config.replan_period_s)
         self._ignore_grounded = config.ignore_grounded_traffic
+        self._landing_ignores_grounded = config.landing_ignores_grounded_traffic
         self._traffic_gate = config.traffic_gate
         self._cruise_speed_m_s = config.cruise_speed_m_s
 
@@ -117,7 +121,9 @@ class PlannerDriver:
         to_local = self.own.to_local
         claims = neighbours.neighbours(sim_now, to_local, regions.flagged, self.own.local_frame)
         home = self.own.home
-        if self._ignore_grounded and home is not None:
+        descending = mission.descending()
+        grounded_out = self._ignore_grounded or (descending and self._landing_ignores_grounded)
+        if grounded_out and home is not None:
             claims = tuple(n for n in claims if not on_ground(n, home.p_ned_m[2]))
         if self._traffic_gate.enabled and home is not None:
             claims = gate_neighbours(
@@ -139,7 +145,7 @@ class PlannerDriver:
                 if not r.on_ground  # a radio on the ground: only the pad rule minds it
             ),
             goal_any_height=mission.goal_any_height(),
-            descend_to_goal=mission.descending(),
+            descend_to_goal=descending,
         )
         start = time.perf_counter()
         decision = self._decide(now_s, planner_input)

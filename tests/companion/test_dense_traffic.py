@@ -22,6 +22,11 @@
   flew off its site; one never came back to land. Descending straight onto the goal while
   hovering there stays clear and nobody is near the column down (``planner.approach_descent``),
   all four land.
+- A landing beside a delivered aircraft: an aircraft comes to a site 40 m from one where
+  another has just landed. Pushed off its site while that one was still coming down, it held
+  the planner's d_safe (100 m) from it once it stood on the ground, 50 m off its own site,
+  to the end of the run. In the descent the aircraft standing on the ground are no traffic
+  (``companion.landing_ignores_grounded_traffic``): it comes back and lands.
 """
 
 from __future__ import annotations
@@ -45,6 +50,7 @@ DEPOT_JAM = Path(__file__).with_name("depot_jam.yaml")
 PARALLEL_LANES = Path(__file__).with_name("parallel_lanes.yaml")
 DELIVERY_CLUSTER = Path(__file__).with_name("delivery_cluster.yaml")
 LANDING_SITES = Path(__file__).with_name("landing_sites.yaml")
+LANDED_BESIDE = Path(__file__).with_name("landed_beside.yaml")
 NOMINAL_ARRIVAL_S = 4.0 + 300.0 / 8.0  # take-off, then 300 m at 8 m/s
 
 
@@ -123,3 +129,16 @@ def test_landings_beside_landings_descend_straight_onto_their_sites(tmp_path: Pa
     straight = landed_s({})  # the default
     assert all(math.isfinite(t) for t in straight.values())  # today: 85.0-110.2 s
     assert not all(math.isfinite(t) for t in drifting.values())  # today: aircraft 2 never
+
+
+@pytest.mark.slow
+def test_a_landing_beside_a_delivered_aircraft_is_not_held_off_by_it(tmp_path: Path) -> None:
+    def landed_s(**companion: Any) -> dict[int, float]:
+        rows = deliveries(_fly(tmp_path, LANDED_BESIDE, None, **companion))
+        return {r.sysid: math.inf if r.landed_s is None else r.landed_s for r in rows}
+
+    held_off = landed_s(landing_ignores_grounded_traffic=False)
+    lands = landed_s()  # the default
+    assert held_off[1] == lands[1] < 60.0  # the first lands alone: today 58.0 s both times
+    assert math.isfinite(lands[2])  # today: 113.6 s
+    assert held_off[2] == math.inf  # today: 50.7 m off its site at the end
