@@ -264,6 +264,10 @@ def generate(base: Scenario, n_aircraft: int, seed: int, family: FamilyConfig) -
     )
 
 
+#: The time step (s) of the nominal flights a spoofer's line is aimed at.
+AIM_STEP_S = 0.5
+
+
 def _aimed_line(
     aircraft: tuple[AircraftConfig, ...], seed: int, stream: str, family: FamilyConfig
 ) -> SpooferConfig:
@@ -275,10 +279,6 @@ def _aimed_line(
     flights_enu_m = _nominal_flights(aircraft, t_s, family)
     met = [_nominal_encounters(flights_enu_m, t_s, c, family) for c in candidates]
     return candidates[int(np.argmax(met))]
-
-
-#: The time step (s) of the nominal flights a spoofer's line is aimed at.
-AIM_STEP_S = 0.5
 
 
 def _nominal_encounters(
