@@ -15,7 +15,9 @@ can be 10 % off; the verdict uses the median of the repetitions. Each run also r
 time of all its processes (this one, the worker and the recorder; ``time.process_time`` and
 the children's ``getrusage``), the number to compare on a loaded machine, where wall clock
 mostly measures the other jobs. ``--serial`` steps every core in one process (the baseline
-of the two-process run; the same log).
+of the two-process run; the same log). A two-process run also prints where each process
+spent its ticks (``lockstep_split.PhaseTimes``): at 16 + 1 the sim is the first barrier's
+longer side, so time off the sim is time off the wall clock, the companions' counts half.
 Targets (scale issue), 2-core development machine: 16 + 1 >= 25x, 64 + 1 >= 8x real time.
 """
 
@@ -38,6 +40,7 @@ import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
+from typing import Any  # noqa: E402
 
 #: Speed-up targets by fleet size (aircraft + the spoofer), from the scale issue.
 TARGET_SPEEDUP_BY_AIRCRAFT = {16: 25.0, 64: 8.0}
@@ -93,6 +96,8 @@ def _cell(args: argparse.Namespace, planner: str, n_aircraft: int) -> str:
             f"{run['sim_s'] / run['wall_s']:5.1f}x real time, CPU {run['cpu_s']:6.2f} s",
             flush=True,
         )
+        if run["phases"] is not None:
+            print(f"{'':19s}{_phases_line(run['phases'])}", flush=True)
     walls = [run["wall_s"] for run in runs]
     median = statistics.median(walls)
     cpu = statistics.median(run["cpu_s"] for run in runs)
@@ -111,7 +116,16 @@ def _cell(args: argparse.Namespace, planner: str, n_aircraft: int) -> str:
     )
 
 
-def _one_run(args: argparse.Namespace, planner: str, n_aircraft: int) -> dict[str, float | None]:
+def _phases_line(phases: dict[str, dict[str, float]]) -> str:
+    """Where each process of a split run spent its ticks, as one line."""
+    parts = []
+    for process, label in (("run", "this process"), ("worker", "worker")):
+        seconds = phases.get(process, {})
+        parts.append(f"{label}: " + ", ".join(f"{k} {v:.2f} s" for k, v in seconds.items()))
+    return "; ".join(parts)
+
+
+def _one_run(args: argparse.Namespace, planner: str, n_aircraft: int) -> dict[str, Any]:
     from ridsafe.tools.analysis.metrics import compute_metrics  # noqa: PLC0415 (not timed)
     from ridsafe.tools.run import lockstep  # noqa: PLC0415
     from ridsafe.tools.run.scenario import load_scenario_file, with_aircraft  # noqa: PLC0415
@@ -139,6 +153,7 @@ def _one_run(args: argparse.Namespace, planner: str, n_aircraft: int) -> dict[st
         "tick_s": loaded.run.lockstep_tick_s,
         "gcs_compute_s": metrics["gcs_compute_s"],
         "planner_p99_ms": metrics["planner_decision_p99_ms"],
+        "phases": result.phase_times_s,  # None in one process
     }
 
 

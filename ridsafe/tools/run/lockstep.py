@@ -134,6 +134,9 @@ class RunResult:
     sim_time_s: float
     log_path: Path
     build_s: float = 0.0  # of wall_clock_s: building the cores (kernels loaded) before t = 0
+    #: A split run: where each process's ticks went (``lockstep_split.PhaseTimes``), by
+    #: process ("run", "worker"), then phase; None for a run on one process.
+    phase_times_s: dict[str, dict[str, float]] | None = None
 
 
 def run_lockstep(
@@ -217,7 +220,8 @@ def _run_split(
             run.close()
     finally:
         gc.unfreeze()
-    return RunResult(status, reason, wall, run.t_s, log_path, build_s)
+    phases = {"run": run.times.seconds, "worker": run.worker_times.seconds}
+    return RunResult(status, reason, wall, run.t_s, log_path, build_s, phases)
 
 
 def _fly(

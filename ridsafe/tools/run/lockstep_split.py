@@ -56,6 +56,7 @@ from ridsafe.tools.runlog.child_writer import ctrl_c_deferred, pickle_record
 __all__ = [
     "Core",
     "LaneBuffer",
+    "PhaseTimes",
     "Roles",
     "SplitLockstep",
     "WorkerError",
@@ -87,6 +88,24 @@ Pickled = bytes  # pickle of (topic, t_s, record)
 
 Lane = str  # the core that logged a record ('' outside every core's step)
 Laned = tuple[Lane, Pickled]
+
+
+@dataclass
+class PhaseTimes:
+    """Where a process of a split run spent its ticks (s of wall clock, ``time.perf_counter``):
+    by phase, filled in as it steps. This process: ``sim``, ``companions`` (its half),
+    ``sending``, ``waiting`` (for the worker's answers); the worker: ``gcs``, ``companions``,
+    ``writing`` (the log, in the time it waits), ``idle``. Each tick has two barriers (the sim
+    beside the GCS, then the two halves of the companions): what one side waits is the other
+    side's longer phase. The rest (pickling the records, ordering them) is in no phase."""
+
+    seconds: dict[str, float] = field(default_factory=dict)
+
+    def add(self, phase: str, started_s: float) -> float:
+        """Count the time since ``started_s`` to ``phase``; returns now."""
+        now_s = time.perf_counter()
+        self.seconds[phase] = self.seconds.get(phase, 0.0) + now_s - started_s
+        return now_s
 
 
 @dataclass
@@ -198,6 +217,8 @@ class SplitLockstep:
         self._sim = cores[roles.sim]
         self._routes = _Routes(router)
         self._sim_inbox: Datagrams = []
+        #: Where this process's ticks went; the worker's, once :meth:`close` has run.
+        self.times, self.worker_times = PhaseTimes(), PhaseTimes()
         self._finished = self._closed = False
         context = multiprocessing.get_context("fork")
         self._conn, worker_end = context.Pipe(duplex=True)
@@ -235,20 +256,27 @@ class SplitLockstep:
         return now_s
 
     def _step(self, now_s: float) -> None:
+        times, started = self.times, time.perf_counter()
         sim_inbox, self._sim_inbox = self._sim_inbox, []
         to_companions: dict[str, Datagrams] = {name: [] for name in self._names}
         with self._buffer.lane(self._roles.sim):
             sent_by_sim = self._sim.handle(now_s, sim_inbox)
         self._routes.split(self._roles.sim, sent_by_sim, to_companions)
         there = {name: to_companions[name] for name in self._there_names}
+        started = times.add("sim", started)
         self._conn.send(("step", now_s, there, self._buffer.take()))
+        started = times.add("sending", started)
         from_gcs: dict[str, Datagrams] = self._answer(_ANSWER_TIMEOUT_S)
+        started = times.add("waiting", started)
         inboxes = {name: from_gcs[name] + to_companions[name] for name, _ in self._here}
         to_sim, to_gcs = _step_companions(
             self._routes, self._roles, self._here, inboxes, now_s, self._buffer
         )
+        started = times.add("companions", started)
         self._conn.send((to_gcs, self._buffer.take()))
+        started = times.add("sending", started)
         to_sim.update(self._answer(_ANSWER_TIMEOUT_S))
+        times.add("waiting", started)
         self._sim_inbox = _in_companion_order(to_sim, self._names)
 
     def finish(self) -> None:
@@ -277,7 +305,7 @@ class SplitLockstep:
             with ctrl_c_deferred():
                 self._conn.send(("close", self.t_s, {}, self._buffer.take()))
                 self._answer(_CLOSE_TIMEOUT_S)  # the answer sent before it was asked
-                self._answer(_CLOSE_TIMEOUT_S)
+                self.worker_times = PhaseTimes(self._answer(_CLOSE_TIMEOUT_S))
         finally:
             self._end_worker()
 
@@ -323,10 +351,11 @@ def _spin(conn: multiprocessing.connection.Connection) -> bool:
 class _Writer:
     """The worker's log: records wait in order and are written while the worker waits."""
 
-    def __init__(self, log: LogSink, first: Sequence[Laned]) -> None:
+    def __init__(self, log: LogSink, first: Sequence[Laned], times: PhaseTimes) -> None:
         self.log = log
         self.pending: collections.deque[Laned] = collections.deque(first)
         self.closed = False
+        self.times = times
 
     def add(self, records: Sequence[Laned]) -> None:
         self.pending.extend(records)
@@ -338,11 +367,15 @@ class _Writer:
 
     def wait_for(self, conn: multiprocessing.connection.Connection) -> Any:
         """The next message on ``conn``, writing pending records until it is there."""
+        started = time.perf_counter()
         while not conn.poll():
             if self.pending:
                 self.write_one()
-            elif not _spin(conn):
-                conn.poll(None)
+                started = self.times.add("writing", started)
+            else:
+                if not _spin(conn):
+                    conn.poll(None)
+                started = self.times.add("idle", started)
         return conn.recv()
 
     def close(self) -> None:
@@ -374,11 +407,11 @@ def _work(
     parent_end.close()  # end of file must mean the run's process is gone
     writer: _Writer | None = None
     try:
-        writer = _Writer(open_log(), buffer.take())
+        writer = _Writer(open_log(), buffer.take(), PhaseTimes())
         conn.send(("ok", None))  # the log is open
         _serve(conn, _Routes(router), roles, cores, buffer, writer)
         writer.close()
-        conn.send(("ok", None))
+        conn.send(("ok", writer.times.seconds))
     except (EOFError, BrokenPipeError):
         pass  # the run's process is gone: the log is finished below with what came
     except BaseException:  # reported to the run's process, which raises it
@@ -407,9 +440,11 @@ def _serve(
     while True:
         to_companions: dict[str, Datagrams] = {name: [] for name in roles.companions}
         if gcs_now_s is not None:
+            started = time.perf_counter()
             with buffer.lane(roles.gcs):
                 sent_by_gcs = gcs.handle(gcs_now_s, gcs_inbox)
             routes.split(roles.gcs, sent_by_gcs, to_companions)
+            writer.times.add("gcs", started)
             gcs_now_s = None
         writer.add(buffer.take())  # the GCS's records come before the sim's of the next tick
         theirs = {name: sent for name, sent in to_companions.items() if name not in mine}
@@ -427,7 +462,9 @@ def _serve(
         if kind == "close":
             return
         inboxes = {name: to_companions[name] + from_sim[name] for name, _ in cores}
+        started = time.perf_counter()
         to_sim, to_gcs = _step_companions(routes, roles, cores, inboxes, now_s, buffer)
+        writer.times.add("companions", started)
         from_here, records = _answer_and_wait(conn, writer, ("ok", to_sim))
         writer.add(in_serial_order([*records, *buffer.take()], order))  # both processes'
         gcs_inbox = _in_companion_order({**from_here, **to_gcs}, roles.companions)

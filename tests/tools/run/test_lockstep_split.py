@@ -49,13 +49,23 @@ def test_a_split_run_logs_what_a_serial_run_logs(tmp_path: Path) -> None:
     loaded = dataclasses.replace(
         loaded, scenario=dataclasses.replace(loaded.scenario, duration_s=20.0)
     )
-    logs = {}
+    logs, results = {}, {}
     for split in (False, True):
         path = tmp_path / f"split-{split}.mcap"
-        result = run_lockstep(loaded, "aware", path, split=split)
+        results[split] = result = run_lockstep(loaded, "aware", path, split=split)
         assert result.status == "completed" and result.sim_time_s == pytest.approx(20.0)
         logs[split] = [(topic, t, _without_wall_clock(r)) for topic, t, r in read_records(path)]
     serial, split_log = logs[False], logs[True]
+    # Where the ticks went, by process and phase (what bench_lockstep.py prints).
+    assert results[False].phase_times_s is None
+    phases = results[True].phase_times_s
+    assert phases is not None
+    run, worker = phases["run"], phases["worker"]
+    assert {"sim", "companions", "sending", "waiting"} == set(run)
+    assert {"gcs", "companions", "idle"} <= set(worker) <= {"gcs", "companions", "idle", "writing"}
+    assert all(s > 0.0 for s in (*run.values(), *worker.values()))
+    flight_s = results[True].wall_clock_s - results[True].build_s
+    assert sum(run.values()) < flight_s and sum(worker.values()) < flight_s
     assert len(serial) > 1000
     topics = {topic for topic, _, _ in serial}
     assert {"/gcs/cycle", "/companion/decisions", "/companion/observations"} <= topics
