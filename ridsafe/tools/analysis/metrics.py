@@ -320,11 +320,12 @@ def landing_times_s(
     return landings
 
 
-def _goal_fractions(run: RunLog, min_height_m: float) -> tuple[float | None, float | None]:
-    """``goal_reached_fraction`` and ``landed_fraction``."""
+def _goal_fractions(
+    run: RunLog, arrivals: dict[int, float | None], min_height_m: float
+) -> tuple[float | None, float | None]:
+    """``goal_reached_fraction`` and ``landed_fraction`` (``arrivals``: :func:`arrival_times_s`)."""
     if not run.goals_enu_m or run.truth.t_s.size == 0:
         return None, None
-    arrivals = arrival_times_s(run)
     flying = airborne(run.truth.p_enu_m, run.truth.armed, min_height_m)
     landings = landing_times_s(run, arrivals, flying)
     reached = sum(1 for sysid in run.goals_enu_m if arrivals.get(sysid) is not None)
@@ -341,7 +342,8 @@ def compute_metrics(
     _t, contained = containment_samples(run)
     _te, errors = localisation_errors(run)
     distance = distance_to_spoofer_m(run, min_height_m)
-    goal_reached, landed = _goal_fractions(run, min_height_m)
+    arrivals = arrival_times_s(run)
+    goal_reached, landed = _goal_fractions(run, arrivals, min_height_m)
     end = run.end or {}
     wall = end.get("wall_clock_s")
     metrics: Metrics = {
@@ -371,5 +373,5 @@ def compute_metrics(
         "autopilot_failsafes": run.autopilot_failsafes,
         **paper_metrics(run, min_height_m),
     }
-    metrics.update(adversary_metrics(run, min_height_m, arrival_times_s(run)))  # several/ghosts
+    metrics.update(adversary_metrics(run, min_height_m, arrivals))  # several spoofers, ghosts
     return metrics

@@ -407,11 +407,12 @@ def _work(
     parent_end.close()  # end of file must mean the run's process is gone
     writer: _Writer | None = None
     try:
-        writer = _Writer(open_log(), buffer.take(), PhaseTimes())
+        times = PhaseTimes()
+        writer = _Writer(open_log(), buffer.take(), times)
         conn.send(("ok", None))  # the log is open
-        _serve(conn, _Routes(router), roles, cores, buffer, writer)
+        _serve(conn, _Routes(router), roles, cores, buffer, writer, times)
         writer.close()
-        conn.send(("ok", writer.times.seconds))
+        conn.send(("ok", times.seconds))
     except (EOFError, BrokenPipeError):
         pass  # the run's process is gone: the log is finished below with what came
     except BaseException:  # reported to the run's process, which raises it
@@ -429,9 +430,10 @@ def _serve(
     cores: list[tuple[str, Core]],
     buffer: LaneBuffer,
     writer: _Writer,
+    times: PhaseTimes,
 ) -> None:
     """Answer the run's process until it says close; the log's last records are written by
-    the caller (``_Writer.close``)."""
+    the caller (``_Writer.close``). ``times``: where the worker's ticks went."""
     gcs = cast(Core, routes.router.cores[roles.gcs])
     mine = {name for name, _ in cores}
     order = routes.router.order
@@ -444,7 +446,7 @@ def _serve(
             with buffer.lane(roles.gcs):
                 sent_by_gcs = gcs.handle(gcs_now_s, gcs_inbox)
             routes.split(roles.gcs, sent_by_gcs, to_companions)
-            writer.times.add("gcs", started)
+            times.add("gcs", started)
             gcs_now_s = None
         writer.add(buffer.take())  # the GCS's records come before the sim's of the next tick
         theirs = {name: sent for name, sent in to_companions.items() if name not in mine}
@@ -464,7 +466,7 @@ def _serve(
         inboxes = {name: to_companions[name] + from_sim[name] for name, _ in cores}
         started = time.perf_counter()
         to_sim, to_gcs = _step_companions(routes, roles, cores, inboxes, now_s, buffer)
-        writer.times.add("companions", started)
+        times.add("companions", started)
         from_here, records = _answer_and_wait(conn, writer, ("ok", to_sim))
         writer.add(in_serial_order([*records, *buffer.take()], order))  # both processes'
         gcs_inbox = _in_companion_order({**from_here, **to_gcs}, roles.companions)
