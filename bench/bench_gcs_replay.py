@@ -14,9 +14,12 @@ mean per update, and the ratio. The difference is what the run's other cores cos
 the sim and the companions run in the same process between two GCS cycles and leave the
 caches cold. The replay is where to profile the pipeline itself.
 
-Only the pipeline's ``step`` is timed. The GCS's ``compute_ms`` (metric
+Only the pipeline's ``step`` is replayed. The GCS's ``compute_ms`` (metric
 ``gcs_update_p99_ms``) also counts building the claims (``ingest.close_due``) and sending
-the regions to every peer.
+the regions to every peer; the building is timed in the run too, and both are printed by the
+cycles' kind: those that close no transmission (the work bound's waiting claims), one (the
+spoofer's, whose broadcasts are not in step with the fleet's) or more (the fleet's, whose
+broadcasts are).
 """
 
 from __future__ import annotations
@@ -33,7 +36,7 @@ import gc  # noqa: E402
 import logging  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
-from collections.abc import Sequence  # noqa: E402
+from collections.abc import Callable, Sequence  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
@@ -67,6 +70,43 @@ class _Recording:
         return out
 
 
+class _TimedClosing:
+    """The GCS ingest's ``close_due``, timed, with how many transmissions each call closed
+    (one call per GCS cycle, just before the pipeline's ``step``)."""
+
+    def __init__(self, close_due: Callable[[float], list[ObservedClaim]]) -> None:
+        self.close_due = close_due
+        self.closed: list[int] = []
+        self.close_s: list[float] = []
+
+    def __call__(self, now_s: float) -> list[ObservedClaim]:
+        start = time.perf_counter()
+        claims = self.close_due(now_s)
+        self.close_s.append(time.perf_counter() - start)
+        self.closed.append(len(claims))
+        return claims
+
+
+def _by_cycle_kind(closing: _TimedClosing, step_s: np.ndarray) -> list[str]:
+    """Per kind of cycle (transmissions it closed): building the claims and the step, in
+    the run."""
+    closed = np.asarray(closing.closed)
+    close_ms, step_ms = np.asarray(closing.close_s) * 1e3, step_s * 1e3
+    lines = []
+    for kind, picked in (
+        ("none", closed == 0), ("one", closed == 1), ("two or more", closed >= 2)
+    ):  # fmt: skip
+        if not picked.any():
+            continue
+        c, s = close_ms[picked], step_ms[picked]
+        lines.append(
+            f"    closing {kind} ({picked.sum()} cycles, {closed[picked].mean():.1f} closed): "
+            f"building the claims mean {c.mean():.3f} ms p99 {np.percentile(c, 99):.3f} ms, "
+            f"step mean {s.mean():.3f} ms p99 {np.percentile(s, 99):.3f} ms"
+        )
+    return lines
+
+
 def _summary(step_s: np.ndarray) -> str:
     ms = step_s * 1e3
     p50, p90, p99 = np.percentile(ms, [50, 90, 99])
@@ -95,6 +135,8 @@ def main() -> None:
     run = build(loaded, "aware", NullSink())
     recording = _Recording(run.gcs.pipeline)
     run.gcs.pipeline = recording
+    closing = _TimedClosing(run.gcs.ingest.close_due)
+    run.gcs.ingest.close_due = closing  # type: ignore[method-assign]
     freeze_startup_objects()  # as every run does before its loop (tools/run/lockstep.py)
     print(f"{args.config.name}, {args.aircraft} aircraft, seed {args.seed}: flying ...", flush=True)
     while run.t_s < args.duration - 1e-9:
@@ -114,6 +156,8 @@ def main() -> None:
     replayed = np.median(np.array(replays), axis=0)
     in_run = np.asarray(recording.step_s)
     print(f"  in the run ({len(in_run)} updates): {_summary(in_run)}")
+    if len(closing.closed) == len(in_run):  # else a cycle's step raised: no pairing
+        print("\n".join(_by_cycle_kind(closing, in_run)))
     print(f"  replayed alone (median of {args.repeat}): {_summary(replayed)}")
     ratio_p99 = np.percentile(in_run, 99) / np.percentile(replayed, 99)
     print(
