@@ -174,13 +174,15 @@ class _Group:
 
 _T, _X, _Y, _Z, _RSSI, _SYSID = range(6)
 _COLUMNS = 6
+_NO_VELOCITY = (math.nan, math.nan, math.nan)  # a row of ``claims_of``'s velocities, unused
 _FIRST_ROWS = 16
 
 
 def claims_of(groups: Sequence[_Group]) -> list[ObservedClaim]:
     """The observed claims of ``groups``, receptions sorted by receiver id: every group's
     rows stacked, sorted by (group, receiver) and cut into read-only columns, then sliced
-    per claim (a handful of numpy calls per cycle, none per reception)."""
+    per claim, the claimed positions and velocities likewise (a handful of numpy calls per
+    cycle, none per reception or claim)."""
     if not groups:
         return []
     sizes = [g.n for g in groups]
@@ -194,15 +196,17 @@ def claims_of(groups: Sequence[_Group]) -> list[ObservedClaim]:
     t_s = _frozen(np.ascontiguousarray(stacked[:, _T]))
     rssi = _frozen(np.ascontiguousarray(stacked[:, _RSSI]))
     rx_p = _frozen(np.ascontiguousarray(stacked[:, _X : _Z + 1]))
+    # Every claimed position and velocity in one read-only array each, a row per claim.
+    claimed_p = readonly([g.claimed_p_enu_m for g in groups])
+    claimed_v = readonly([g.claimed_v_enu_m_s or _NO_VELOCITY for g in groups])
     claims = []
-    for g, end, size in zip(groups, ends, sizes, strict=True):
+    for j, (g, end, size) in enumerate(zip(groups, ends, sizes, strict=True)):
         rows = slice(end - size, end)
-        velocity = None if g.claimed_v_enu_m_s is None else readonly(g.claimed_v_enu_m_s)
         claim = ObservedClaim(
             uas_id=g.uas_id,
             rid_timestamp_s=g.rid_timestamp_s,
-            claimed_p_enu_m=readonly(g.claimed_p_enu_m),
-            claimed_v_enu_m_s=velocity,
+            claimed_p_enu_m=claimed_p[j],
+            claimed_v_enu_m_s=None if g.claimed_v_enu_m_s is None else claimed_v[j],
             rx_sysid=sysid[rows],
             rx_p_enu_m=rx_p[rows],
             rx_t_s=t_s[rows],

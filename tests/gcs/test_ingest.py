@@ -296,8 +296,29 @@ def test_claims_of_one_cycle_are_built_together_each_sorted_by_receiver() -> Non
         assert claim.rssi_dbm.tolist() == [r[3] for r in expected]
         np.testing.assert_allclose(claim.rx_p_enu_m, [r[2] for r in expected], atol=1e-6)
         assert claim.t_s == min(r[1] for r in receptions) == float(claim.rx_t_s.min())
-        for array in (claim.rx_sysid, claim.rx_t_s, claim.rssi_dbm, claim.rx_p_enu_m):
-            assert not array.flags.writeable
+        arrays = (claim.rx_sysid, claim.rx_t_s, claim.rssi_dbm, claim.rx_p_enu_m)
+        for array in (*arrays, claim.claimed_p_enu_m, claim.claimed_v_enu_m_s):
+            assert array is not None and not array.flags.writeable
+
+
+def test_claims_closed_together_keep_their_own_claimed_position_and_velocity() -> None:
+    """A cycle's claimed positions and velocities are built together: each claim gets its
+    own, and one without a speed has no velocity."""
+    ingest = Ingest(GcsConfig(), ORIGIN)
+    moving = observation(uas_id=SPOOF, claimed_enu_m=(300.0, 400.0, 60.0))
+    still = dataclasses.replace(
+        observation(uas_id=BENIGN, claimed_enu_m=(-50.0, 20.0, 40.0)),
+        claimed_speed_horizontal_m_s=None,
+    )
+    for sysid, obs in ((2, moving), (3, still)):
+        assert ingest.add(1.05, sysid, obs) is None
+    claims = {c.uas_id: c for c in ingest.close_due(1.4)}
+    np.testing.assert_allclose(claims[SPOOF].claimed_p_enu_m, [300.0, 400.0, 60.0], atol=1e-6)
+    np.testing.assert_allclose(claims[BENIGN].claimed_p_enu_m, [-50.0, 20.0, 40.0], atol=1e-6)
+    velocity = claims[SPOOF].claimed_v_enu_m_s
+    assert velocity is not None
+    np.testing.assert_allclose(velocity, [5.0, 0.0, -1.0], atol=1e-9)
+    assert claims[BENIGN].claimed_v_enu_m_s is None
 
 
 def test_closed_keys_are_forgotten_oldest_first_after_the_history_window() -> None:
