@@ -20,15 +20,15 @@ from ridsafe.tools.runlog.reader import read_records
 
 ROOT = Path(__file__).resolve().parents[3]
 
-#: Warm up as a live run does, then fly 30 s of the default scenario in the same process (past
-#: the alert, so tracking and regions run); prints every ridsafe kernel's compiled signatures
-#: after each. A kernel or signature the run needs and the warm-up did not compile would be
-#: compiled (and cached) by every process of a live run after an install.
-WARM_UP_THEN_RUN = """
+#: Build the cores as each process of a live run builds its own before the start instant, then
+#: fly 30 s of the default scenario in the same process (past the alert, so tracking and
+#: regions run); prints every ridsafe kernel's compiled signatures after each.
+BUILD_THEN_RUN = """
 import dataclasses, gc, json, sys
 from pathlib import Path
 from numba.core.dispatcher import Dispatcher
-from ridsafe.tools.run.lockstep import run_lockstep, warm_up
+from ridsafe.common.logsink import NullSink
+from ridsafe.tools.run.lockstep import build, run_lockstep
 from ridsafe.tools.run.scenario import load_scenario_file
 
 def compiled():
@@ -40,41 +40,43 @@ def compiled():
     }
 
 loaded = load_scenario_file()
-warm_up(loaded, "aware")
-after_warm_up = compiled()
+build(loaded, "aware", NullSink())
+after_build = compiled()
 scenario = dataclasses.replace(loaded.scenario, duration_s=30.0)
 loaded = dataclasses.replace(loaded, scenario=scenario)
 run_lockstep(loaded, "aware", Path(sys.argv[1]), recorder_process=False, split=False)
-print(json.dumps({"after_warm_up": after_warm_up, "after_run": compiled()}))
+print(json.dumps({"after_build": after_build, "after_run": compiled()}))
 """
 
 
 @pytest.mark.slow
-def test_after_warm_up_a_run_compiles_nothing_new(tmp_path: Path) -> None:
-    """warm_up compiles (or loads from the cache) every kernel signature a run uses: a run
-    afterwards (past the alert, so tracking and regions run) adds none. Checked on the
-    kernels' signatures in one process, whatever the cache held before: numba caches one
-    entry per kernel and signature, so a run that adds no signature writes nothing new to
-    the cache after an install either."""
+def test_built_cores_have_every_kernel_a_run_calls(tmp_path: Path) -> None:
+    """Building the sim, the companions and the GCS loads (or compiles) every kernel
+    signature their run calls: a live run's processes build their cores before the start
+    instant, so none stands still after it while numba loads a kernel (the sim's once did,
+    for 0.4 s of a slow host's wall clock), and ``warm_up`` (the same build and a tick)
+    leaves every one of them in numba's cache after an install. Checked on the kernels'
+    signatures in one process, whatever the cache held: numba caches one entry per kernel
+    and signature."""
     log = tmp_path / "run.mcap"
     done = subprocess.run(
-        [sys.executable, "-c", WARM_UP_THEN_RUN, str(log)],
+        [sys.executable, "-c", BUILD_THEN_RUN, str(log)],
         check=False, cwd=ROOT, capture_output=True, text=True,
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     compiled = json.loads(done.stdout.splitlines()[-1])
-    after_warm_up, after_run = compiled["after_warm_up"], compiled["after_run"]
+    after_build, after_run = compiled["after_build"], compiled["after_run"]
     # The kernels called from Python (the ones they call are compiled into them, and are
     # listed with their own signatures only when compiled here, not loaded from the cache).
-    assert sum(1 for s in after_warm_up.values() if s) >= 15
+    assert sum(1 for s in after_build.values() if s) >= 15
     for package in ("ridsafe.sim_backend.", "ridsafe.companion.", "ridsafe.gcs."):
-        assert any(name.startswith(package) and s for name, s in after_warm_up.items())
+        assert any(name.startswith(package) and s for name, s in after_build.items())
     alerts = list(read_records(log, {topics.ALERTS}))
     assert alerts, "the run never alerted: tracking and regions did not run"
     new = {
-        name: sorted(set(s) - set(after_warm_up.get(name, [])))
+        name: sorted(set(s) - set(after_build.get(name, [])))
         for name, s in after_run.items()
-        if set(s) - set(after_warm_up.get(name, []))
+        if set(s) - set(after_build.get(name, []))
     }
     assert new == {}
 
