@@ -349,13 +349,14 @@ def _spin(conn: multiprocessing.connection.Connection) -> bool:
 
 
 class _Writer:
-    """The worker's log: records wait in order and are written while the worker waits."""
+    """The worker's log: records wait in order and are written while the worker waits.
+    ``times``: where the worker's ticks went (its writing and idle time counted here)."""
 
-    def __init__(self, log: LogSink, first: Sequence[Laned], times: PhaseTimes) -> None:
+    def __init__(self, log: LogSink, first: Sequence[Laned]) -> None:
         self.log = log
         self.pending: collections.deque[Laned] = collections.deque(first)
         self.closed = False
-        self.times = times
+        self.times = PhaseTimes()
 
     def add(self, records: Sequence[Laned]) -> None:
         self.pending.extend(records)
@@ -407,12 +408,11 @@ def _work(
     parent_end.close()  # end of file must mean the run's process is gone
     writer: _Writer | None = None
     try:
-        times = PhaseTimes()
-        writer = _Writer(open_log(), buffer.take(), times)
+        writer = _Writer(open_log(), buffer.take())
         conn.send(("ok", None))  # the log is open
-        _serve(conn, _Routes(router), roles, cores, buffer, writer, times)
+        _serve(conn, _Routes(router), roles, cores, buffer, writer)
         writer.close()
-        conn.send(("ok", times.seconds))
+        conn.send(("ok", writer.times.seconds))
     except (EOFError, BrokenPipeError):
         pass  # the run's process is gone: the log is finished below with what came
     except BaseException:  # reported to the run's process, which raises it
@@ -430,10 +430,9 @@ def _serve(
     cores: list[tuple[str, Core]],
     buffer: LaneBuffer,
     writer: _Writer,
-    times: PhaseTimes,
 ) -> None:
     """Answer the run's process until it says close; the log's last records are written by
-    the caller (``_Writer.close``). ``times``: where the worker's ticks went."""
+    the caller (``_Writer.close``). Where the worker's ticks went: ``writer.times``."""
     gcs = cast(Core, routes.router.cores[roles.gcs])
     mine = {name for name, _ in cores}
     order = routes.router.order
@@ -446,7 +445,7 @@ def _serve(
             with buffer.lane(roles.gcs):
                 sent_by_gcs = gcs.handle(gcs_now_s, gcs_inbox)
             routes.split(roles.gcs, sent_by_gcs, to_companions)
-            times.add("gcs", started)
+            writer.times.add("gcs", started)
             gcs_now_s = None
         writer.add(buffer.take())  # the GCS's records come before the sim's of the next tick
         theirs = {name: sent for name, sent in to_companions.items() if name not in mine}
@@ -466,7 +465,7 @@ def _serve(
         inboxes = {name: to_companions[name] + from_sim[name] for name, _ in cores}
         started = time.perf_counter()
         to_sim, to_gcs = _step_companions(routes, roles, cores, inboxes, now_s, buffer)
-        times.add("companions", started)
+        writer.times.add("companions", started)
         from_here, records = _answer_and_wait(conn, writer, ("ok", to_sim))
         writer.add(in_serial_order([*records, *buffer.take()], order))  # both processes'
         gcs_inbox = _in_companion_order({**from_here, **to_gcs}, roles.companions)
