@@ -162,13 +162,11 @@ TOPICS: dict[str, tuple[str, dict[str, str]]] = {
         },
     ),
     DETECTOR_STATS: (
-        "GCS, per transmission and detector",
+        "GCS, per transmission (observed claim)",
         {
             "uas_id": "claimed transmitter",
-            "detector": "detector name",
-            "statistic": "test statistic",
-            "threshold": "threshold",
-            "decision": "statistic above threshold",
+            "detectors": "{detector name: {statistic, threshold, decision (statistic above "
+            "threshold)}}, every detector's verdict on the claim",
         },
     ),
     SIM_EVENTS: (

@@ -15,8 +15,9 @@ Each call:
 1. parse every datagram on its peer's link; observation reports go to :class:`Ingest`;
 2. drop peers not heard for ``peer_timeout_s`` from the send list (they return when heard);
 3. every ``cycle_s`` of sim time: close due transmissions, ``pipeline.step``, log the cycle
-   (``/gcs/cycle`` with the compute time, ``/gcs/detector_stats``, ``/gcs/alerts``,
-   ``/gcs/tracks``, ``/gcs/unsafe_regions``) and send alerts and regions to every live peer;
+   (``/gcs/cycle`` with the compute time, ``/gcs/detector_stats`` one record per claim with
+   every detector's verdict, ``/gcs/alerts``, ``/gcs/tracks``, ``/gcs/unsafe_regions``) and
+   send alerts and regions to every live peer;
 4. a GCS HEARTBEAT (MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID) at ``heartbeat_hz``; ``/app/counters``
    every ``counters_period_s`` and from :meth:`Gcs.finish`.
 
@@ -40,7 +41,7 @@ import dataclasses
 import logging
 import math
 import time
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -62,6 +63,7 @@ from ridsafe.gcs.ingest import Ingest, RateLimitedLog, check_values
 from ridsafe.gcs.pipeline_api import (
     AlertChange,
     CycleOutput,
+    DetectorResult,
     FloatArray,
     GcsPipeline,
     ObservedClaim,
@@ -456,18 +458,8 @@ class Gcs:
     # -- logging ------------------------------------------------------------------------------
 
     def _log_output(self, now_s: float, output: CycleOutput, sent: list[m.UnsafeRegionMsg]) -> None:
-        for result in output.detector_results:
-            self.sink.log(
-                topics.DETECTOR_STATS,
-                now_s,
-                {
-                    "uas_id": result.uas_id,
-                    "detector": _DETECTOR_NAMES[result.detector],
-                    "statistic": float(result.statistic),
-                    "threshold": float(result.threshold),
-                    "decision": bool(result.decision),
-                },
-            )
+        for uas_id, verdicts in _per_claim(output.detector_results):
+            self.sink.log(topics.DETECTOR_STATS, now_s, {"uas_id": uas_id, "detectors": verdicts})
         if output.channel is not None:
             self.sink.log(topics.GCS_CHANNEL, now_s, dataclasses.asdict(output.channel))
         for change in output.alert_changes:
@@ -509,6 +501,28 @@ def _alert(t_s: float, change: AlertChange) -> m.SpoofAlert:
         state=int(change.state),
         uas_id=change.uas_id,
     )
+
+
+def _per_claim(
+    results: Iterable[DetectorResult],
+) -> Iterator[tuple[str, dict[str, dict[str, float | bool]]]]:
+    """A cycle's detector results (every detector's on one claim, then the next claim's) as
+    one ``/gcs/detector_stats`` record per claim: (uas_id, {detector: its verdict})."""
+    uas_id: str | None = None
+    verdicts: dict[str, dict[str, float | bool]] = {}
+    for result in results:
+        name = _DETECTOR_NAMES[result.detector]
+        if result.uas_id != uas_id or name in verdicts:  # the next claim's
+            if uas_id is not None:
+                yield uas_id, verdicts
+            uas_id, verdicts = result.uas_id, {}
+        verdicts[name] = {
+            "statistic": float(result.statistic),
+            "threshold": float(result.threshold),
+            "decision": bool(result.decision),
+        }
+    if uas_id is not None:
+        yield uas_id, verdicts
 
 
 def _alert_record(change: AlertChange) -> dict[str, object]:

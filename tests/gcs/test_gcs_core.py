@@ -21,6 +21,7 @@ from ridsafe.common import codec, frames, pathloss, topics
 from ridsafe.common import messages as m
 from ridsafe.common.ellipsoid import inside
 from ridsafe.common.logsink import MemorySink
+from ridsafe.gcs import gcs as gcs_core
 from ridsafe.gcs.config import ClockSource, GcsConfig
 from ridsafe.gcs.gcs import Gcs, ned_upper_triangle, peer_endpoint
 from ridsafe.gcs.pipeline import EstimationPipeline
@@ -294,7 +295,10 @@ def test_everything_a_cycle_decides_is_logged_per_topic() -> None:
     _, track = pair.sink.on(topics.TRACKS)[0]
     assert track["mode_probabilities"] == [0.3, 0.7] and track["fix"] is True
     (stats,) = pair.sink.on(topics.DETECTOR_STATS)
-    assert stats[1]["detector"] == "nis" and stats[1]["decision"] is False
+    assert stats[1] == {
+        "uas_id": SPOOF,
+        "detectors": {"nis": {"statistic": 2.0, "threshold": 9.0, "decision": False}},
+    }
     for topic in (topics.ALERTS, topics.REGIONS, topics.TRACKS, topics.DETECTOR_STATS):
         for _, record in pair.sink.on(topic):
             assert set(topics.TOPICS[topic][1]) <= set(record)
@@ -500,3 +504,23 @@ def test_the_real_pipeline_behind_the_gcs_localises_a_forced_spoofer() -> None:
 def _cov_matrix(upper: tuple[float, ...]) -> np.ndarray:
     xx, xy, xz, yy, yz, zz = upper
     return np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+
+
+def test_detector_stats_are_one_record_per_claim_with_every_detectors_verdict() -> None:
+    """Two claims of one transmitter in a cycle stay two records; each holds its detectors."""
+    nis, mlat = m.RidsafeDetector.NIS, m.RidsafeDetector.MLAT
+    results = [
+        DetectorResult("A", nis, 1.0, 9.0, False),
+        DetectorResult("A", mlat, 2.0, 8.0, False),
+        DetectorResult("A", nis, 10.0, 9.0, True),  # A's next claim
+        DetectorResult("A", mlat, 3.0, 8.0, False),
+        DetectorResult("B", nis, 4.0, 9.0, False),
+    ]
+    records = list(gcs_core._per_claim(results))
+    assert [(uas_id, list(v)) for uas_id, v in records] == [
+        ("A", ["nis", "mlat"]),
+        ("A", ["nis", "mlat"]),
+        ("B", ["nis"]),
+    ]
+    assert records[1][1]["nis"] == {"statistic": 10.0, "threshold": 9.0, "decision": True}
+    assert list(gcs_core._per_claim([])) == []

@@ -1,13 +1,16 @@
 """ROC curves of the spoofing detectors, from the statistics every run logs.
 
-Every observed claim gives every detector one ``/gcs/detector_stats`` record (statistic,
-threshold, decision; ``gcs.detection.registry``). A record is a *liar's* when its uas_id is not
-the serial of one of the run's benign aircraft (``/run/meta`` ``aircraft``: spoofers and ghosts
-alike), else a benign one. Pooled over runs, each detector's statistic then gives:
+Every observed claim gives every detector one verdict (statistic, threshold, decision;
+``gcs.detection.registry``), logged together in one ``/gcs/detector_stats`` record per claim
+(``detectors``: {name: verdict}; logs written before 2026-11-30 have one record per claim
+and detector, its fields at the top level: both are read). A verdict is a *liar's* when its
+uas_id is not the serial of one of the run's benign aircraft (``/run/meta`` ``aircraft``:
+spoofers and ghosts alike), else a benign one. Pooled over runs, each detector's statistic
+then gives:
 
-- the ROC curve: for every threshold, the fraction of the liars' records above it (true
-  positive rate) against the fraction of the benign records above it (false positive rate);
-- the AUC, P(a liar's record outscores a benign one), ties counting half (Mann-Whitney);
+- the ROC curve: for every threshold, the fraction of the liars' verdicts above it (true
+  positive rate) against the fraction of the benign verdicts above it (false positive rate);
+- the AUC, P(a liar's verdict outscores a benign one), ties counting half (Mann-Whitney);
 - the operating point: the rates of the logged decisions, i.e. at the thresholds the GCS used
   (which may move during a run, e.g. the calibrating GCS's empirical null).
 
@@ -21,6 +24,7 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -58,12 +62,11 @@ def run_scores(log: Path) -> dict[str, ScoreSamples]:
         if topic == topics.RUN_META:
             benign |= set(benign_serials(record))
             continue
-        statistic = record.get("statistic")
-        if isinstance(statistic, int | float) and math.isfinite(statistic):
-            flagged = record.get("decision") is True
-            records.append(
-                (str(record.get("detector")), str(record.get("uas_id")), statistic, flagged)
-            )
+        uas_id = str(record.get("uas_id"))
+        for detector, verdict in _verdicts(record):
+            statistic = verdict.get("statistic")
+            if isinstance(statistic, int | float) and math.isfinite(statistic):
+                records.append((detector, uas_id, statistic, verdict.get("decision") is True))
     samples: dict[str, ScoreSamples] = {}
     for detector, uas_id, statistic, flagged in records:
         into = samples.setdefault(detector, ScoreSamples())
@@ -74,6 +77,15 @@ def run_scores(log: Path) -> dict[str, ScoreSamples]:
             into.liar.append(float(statistic))
             into.liar_flagged += flagged
     return samples
+
+
+def _verdicts(record: dict[str, Any]) -> list[tuple[str, dict[str, Any]]]:
+    """(detector, {statistic, threshold, decision}) of one ``/gcs/detector_stats`` record,
+    either layout (module docstring)."""
+    detectors = record.get("detectors")
+    if isinstance(detectors, dict):
+        return [(str(name), v) for name, v in detectors.items() if isinstance(v, dict)]
+    return [(str(record.get("detector")), record)]
 
 
 @dataclass(frozen=True)

@@ -20,8 +20,24 @@ PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
 def _stat(t_s: float, uas_id: str, detector: str, statistic: float, decision: bool) -> Any:
+    """A record of the layout before 2026-11-30: one per claim and detector."""
     record = {"uas_id": uas_id, "detector": detector, "statistic": statistic}
     return (topics.DETECTOR_STATS, t_s, {**record, "threshold": 6.0, "decision": decision})
+
+
+def _per_claim(old_layout: list[Any]) -> list[Any]:
+    """The same verdicts as the GCS logs them now: one record per claim (a claim's verdicts
+    are consecutive records of one uas_id and time)."""
+    out: list[Any] = []
+    for topic, t_s, record in old_layout:
+        verdict = {k: record[k] for k in ("statistic", "threshold", "decision")}
+        last = out[-1] if out else None
+        if last is not None and (last[1], last[2]["uas_id"]) == (t_s, record["uas_id"]):
+            last[2]["detectors"][record["detector"]] = verdict
+        else:
+            detectors = {record["detector"]: verdict}
+            out.append((topic, t_s, {"uas_id": record["uas_id"], "detectors": detectors}))
+    return out
 
 
 def _write(path: Path, records: list[Any], meta_first: bool = True) -> Path:
@@ -42,12 +58,16 @@ def test_claims_are_labelled_by_the_benign_serials_of_the_run(tmp_path: Path) ->
         _stat(1.5, "GHOST0001", "mlat", float("nan"), False),  # not a number: left out
         _stat(2.0, BENIGN[0], "mlat", 0.5, False),
     ]
+    per_claim = _per_claim(records)
+    assert len(per_claim) == 5  # the ghost's two verdicts in one record
     for meta_first in (True, False):
-        scores = run_scores(_write(tmp_path / f"{meta_first}.mcap", records, meta_first))
-        nis = scores["nis"]
-        assert (nis.liar, nis.benign) == ([9.0, 2.0], [1.0, 7.0])
-        assert (nis.liar_flagged, nis.benign_flagged) == (1, 1)
-        assert (scores["mlat"].liar, scores["mlat"].benign) == ([], [0.5])
+        old = run_scores(_write(tmp_path / f"{meta_first}.mcap", records, meta_first))
+        new = run_scores(_write(tmp_path / f"{meta_first}-new.mcap", per_claim, meta_first))
+        for scores in (old, new):
+            nis = scores["nis"]
+            assert (nis.liar, nis.benign) == ([9.0, 2.0], [1.0, 7.0])
+            assert (nis.liar_flagged, nis.benign_flagged) == (1, 1)
+            assert (scores["mlat"].liar, scores["mlat"].benign) == ([], [0.5])
     rocs = detector_rocs([tmp_path / "True.mcap", tmp_path / "False.mcap"])
     assert [r.detector for r in rocs] == ["nis"]  # mlat has no liar's claim: no curve
     assert (rocs[0].liar_records, rocs[0].benign_records) == (4, 4)
