@@ -121,8 +121,13 @@ def supervise(
 
 
 def stop(children: Sequence[Child]) -> None:
-    """SIGINT (children close their logs), then SIGTERM, then SIGKILL."""
-    for sig, grace in ((signal.SIGINT, STOP_GRACE_S), (signal.SIGTERM, 5.0)):
+    """SIGINT (children close their logs), then SIGTERM, then SIGKILL. Where this process
+    ignores SIGINT (a shell's background job), its children inherited that and would sit out
+    the SIGINT's grace: they get SIGTERM first (which closes their logs too)."""
+    steps = [(signal.SIGINT, STOP_GRACE_S), (signal.SIGTERM, 5.0)]
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        steps = steps[1:]
+    for sig, grace in steps:
         running = [c for c in children if c.returncode is None]
         if not running:
             return

@@ -92,3 +92,21 @@ def test_a_crashed_child_stops_the_run_with_its_name_and_log(tmp_path: Path) -> 
     assert outcome.status == "failed"
     assert "fragile exited with code 3" in outcome.reason and "boom" in outcome.reason
     assert all(c.returncode is not None for c in children)  # the steady one was stopped
+
+
+def test_children_that_ignore_sigint_are_stopped_without_its_grace(tmp_path: Path) -> None:
+    """Started as a shell's background job, the run and its children ignore SIGINT: stopping
+    them must not wait out ``STOP_GRACE_S`` for a signal nobody hears."""
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        sleeper = [sys.executable, "-c", "import time; time.sleep(60)"]
+        child = live.Child("deaf", sleeper, tmp_path / "deaf.log")
+        child.start()  # inherits SIGINT ignored
+        time.sleep(0.5)  # its interpreter is up
+        started = time.monotonic()
+        live.stop([child])
+        took_s = time.monotonic() - started
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert child.returncode == -signal.SIGTERM
+    assert took_s < live.STOP_GRACE_S / 2
