@@ -16,8 +16,11 @@ time of all its processes (this one, the worker and the recorder; ``time.process
 the children's ``getrusage``), the number to compare on a loaded machine, where wall clock
 mostly measures the other jobs. ``--serial`` steps every core in one process (the baseline
 of the two-process run; the same log). A two-process run also prints where each process
-spent its ticks (``lockstep_split.PhaseTimes``): at 16 + 1 the sim is the first barrier's
-longer side, so time off the sim is time off the wall clock, the companions' counts half.
+spent its ticks (``lockstep_split.PhaseTimes``). At 16 + 1 the sim is the first barrier's
+longer side on most ticks, but not on the GCS's heavy ones (a cycle, a batch of reports, the
+fleet's claims closing: 1-4 ms against a sim tick of 0.4-0.7 ms), where this process waits
+(``waiting_gcs``, 0.8 s of a 6.8 s run in a slow hour); ``waiting_companions`` is what the
+two halves of the companions differ by.
 Targets (scale issue), 2-core development machine: 16 + 1 >= 25x, 64 + 1 >= 8x real time.
 """
 

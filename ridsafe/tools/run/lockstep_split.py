@@ -94,10 +94,12 @@ Laned = tuple[Lane, Pickled]
 class PhaseTimes:
     """Where a process of a split run spent its ticks (s of wall clock, ``time.perf_counter``):
     by phase, filled in as it steps. This process: ``sim``, ``companions`` (its half),
-    ``sending``, ``waiting`` (for the worker's answers); the worker: ``gcs``, ``companions``,
-    ``writing`` (the log, in the time it waits), ``idle``. Each tick has two barriers (the sim
-    beside the GCS, then the two halves of the companions): what one side waits is the other
-    side's longer phase. The rest (pickling the records, ordering them) is in no phase."""
+    ``sending``, ``waiting_gcs`` (after the sim, for the GCS's answer) and
+    ``waiting_companions`` (after its half, for the worker's); the worker: ``gcs``,
+    ``companions``, ``writing`` (the log, in the time it waits), ``idle``. Each tick has two
+    barriers (the sim beside the GCS, then the two halves of the companions): what one side
+    waits is the other side's longer phase. The rest (pickling the records, ordering them) is
+    in no phase."""
 
     seconds: dict[str, float] = field(default_factory=dict)
 
@@ -267,7 +269,7 @@ class SplitLockstep:
         self._conn.send(("step", now_s, there, self._buffer.take()))
         started = times.add("sending", started)
         from_gcs: dict[str, Datagrams] = self._answer(_ANSWER_TIMEOUT_S)
-        started = times.add("waiting", started)
+        started = times.add("waiting_gcs", started)
         inboxes = {name: from_gcs[name] + to_companions[name] for name, _ in self._here}
         to_sim, to_gcs = _step_companions(
             self._routes, self._roles, self._here, inboxes, now_s, self._buffer
@@ -276,7 +278,7 @@ class SplitLockstep:
         self._conn.send((to_gcs, self._buffer.take()))
         started = times.add("sending", started)
         to_sim.update(self._answer(_ANSWER_TIMEOUT_S))
-        times.add("waiting", started)
+        times.add("waiting_companions", started)
         self._sim_inbox = _in_companion_order(to_sim, self._names)
 
     def finish(self) -> None:

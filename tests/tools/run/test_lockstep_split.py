@@ -61,7 +61,7 @@ def test_a_split_run_logs_what_a_serial_run_logs(tmp_path: Path) -> None:
     phases = results[True].phase_times_s
     assert phases is not None
     run, worker = phases["run"], phases["worker"]
-    assert {"sim", "companions", "sending", "waiting"} == set(run)
+    assert {"sim", "companions", "sending", "waiting_gcs", "waiting_companions"} == set(run)
     assert {"gcs", "companions", "idle"} <= set(worker) <= {"gcs", "companions", "idle", "writing"}
     assert all(s > 0.0 for s in (*run.values(), *worker.values()))
     flight_s = results[True].wall_clock_s - results[True].build_s
