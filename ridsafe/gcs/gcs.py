@@ -241,11 +241,42 @@ class Gcs:
     # -- the sans-I/O step --------------------------------------------------------------------
 
     def handle(self, now_s: float, inbound: Iterable[tuple[str, bytes]]) -> Datagrams:
-        """Consume inbound datagrams, run what is due at ``now_s``, return outbound datagrams."""
+        """Consume inbound datagrams, run what is due at ``now_s``, return outbound datagrams:
+        :meth:`begin`, :meth:`receive`, :meth:`tick`, which a runner may also call one by one
+        (``receive`` any number of times between the other two), to the same effect."""
+        self.begin(now_s)
+        self.receive(now_s, inbound)
+        return self.tick(now_s)
+
+    def begin(self, now_s: float) -> None:
+        """The start of the step at ``now_s``: the links' signing clocks follow it."""
         self.shell.advance_signing_clocks(now_s)
+
+    def receive(self, now_s: float, inbound: Iterable[tuple[str, bytes]]) -> None:
+        """Consume inbound datagrams of the step at ``now_s``: sends and logs nothing."""
         self.shell.dispatch(
             inbound, lambda endpoint, received: self._accept(now_s, endpoint.name, received)
         )
+
+    def quiet_at(self, now_s: float) -> bool:
+        """True when the step at ``now_s`` can send nothing and log nothing, whatever it
+        receives: the sim clock known, the counters' schedule started, and no cycle,
+        heartbeat or counters due. A runner may then answer for the step before it runs it.
+        What this reads changes only in steps that are not quiet (the one that locks a PEERS
+        clock, the first with a clock, the due ones), so it holds as well for a step whose
+        earlier quiet steps have not run yet."""
+        sim_now = self._time.sim_s(now_s)
+        counters = self._next_counters_s
+        if sim_now is None or counters is None or sim_now >= counters - _EPS_S:
+            return False
+        if now_s >= self._next_heartbeat_s - _EPS_S:
+            return False
+        cycle = self._next_cycle
+        return cycle is None or sim_now < cycle * self.config.cycle_s - _EPS_S
+
+    def tick(self, now_s: float) -> Datagrams:
+        """The rest of the step at ``now_s`` (after :meth:`receive`): peers, cycle, counters,
+        heartbeat; returns outbound datagrams."""
         self._expire_peers(now_s)
         sim_now = self._time.sim_s(now_s)
         if sim_now is not None:

@@ -130,6 +130,7 @@ class GcsPair:
         for i in range(1, n_companions + 1):
             self.add_companion(f"c{i}", i, signing)
         self.t_s = 0.0
+        self.in_parts = False
 
     def add_companion(self, peer: str, sysid: int, signing: codec.SigningConfig | None) -> None:
         self.links[peer] = codec.MavlinkLink(sysid, COMPANION_COMPONENT, signing)
@@ -141,13 +142,20 @@ class GcsPair:
         raw: Sequence[tuple[str, bytes]] = (),
         dt_s: float = 0.05,
     ) -> list[tuple[str, bytes]]:
-        """One ``handle`` at the current time, then advance by ``dt_s``."""
+        """One ``handle`` at the current time (``in_parts``: ``begin``, one ``receive`` per
+        datagram, ``tick``), then advance by ``dt_s``."""
         inbound = [
             (peer_endpoint(peer), self.links[peer].pack_all(list(messages)))
             for peer, messages in (send or {}).items()
             if messages
         ]
-        outbound = self.gcs.handle(self.t_s, [*inbound, *raw])
+        if self.in_parts:
+            self.gcs.begin(self.t_s)
+            for one in [*inbound, *raw]:
+                self.gcs.receive(self.t_s, [one])
+            outbound = self.gcs.tick(self.t_s)
+        else:
+            outbound = self.gcs.handle(self.t_s, [*inbound, *raw])
         for name, datagram in outbound:
             peer = name.removeprefix("companions@")
             self.received[peer].extend((self.t_s, r) for r in self.links[peer].feed(datagram))
@@ -524,3 +532,57 @@ def test_detector_stats_are_one_record_per_claim_with_every_detectors_verdict() 
     ]
     assert records[1][1]["nis"] == {"statistic": 10.0, "threshold": 9.0, "decision": True}
     assert list(gcs_core._per_claim([])) == []
+
+
+def _scripted(pair: GcsPair) -> list[tuple[bool, list[tuple[str, bytes]], int]]:
+    """Ten seconds of heartbeats, reports of a transmission a second (heard by half the
+    companions in each of two steps) and garbage. Per step: ``quiet_at`` before it, the
+    datagrams it sent, the records it logged."""
+    steps = []
+    for k in range(200):
+        send: dict[str, list[m.Message]] = {}
+        if k % 20 == 0:
+            send = {peer: [companion_heartbeat()] for peer in pair.links}
+        if k % 20 in (3, 4):
+            for i, peer in enumerate(pair.links, start=1):
+                if (i + k) % 2:
+                    send.setdefault(peer, []).append(report(i, pair.t_s, 1200.0 + k // 20))
+        raw = [(peer_endpoint("c1"), b"\xfd\x09garbage")] if k % 7 == 0 else []
+        quiet, logged = pair.gcs.quiet_at(pair.t_s), len(pair.sink.records)
+        sent = pair.step(send, raw)
+        steps.append((quiet, sent, len(pair.sink.records) - logged))
+    return steps
+
+
+def _off_cycle(clock: ClockSource) -> GcsConfig:
+    """Heartbeats and counters due on steps of their own, not only the cycles'."""
+    return GcsConfig(clock=clock, heartbeat_hz=0.7, counters_period_s=3.3)
+
+
+@pytest.mark.parametrize("clock", [ClockSource.LOCAL, ClockSource.PEERS])
+def test_a_step_in_parts_does_what_handle_does(clock: ClockSource) -> None:
+    """``begin``, ``receive`` a datagram at a time, ``tick``: the same datagrams out, the same
+    records, the same counters as ``handle`` (signed links: the signing clocks too)."""
+    signing = codec.SigningConfig(KEY, link_id=1)
+    pairs = [GcsPair(config=_off_cycle(clock), signing=signing) for _ in range(2)]
+    pairs[1].in_parts = True
+    whole, in_parts = (_scripted(pair) for pair in pairs)
+    assert whole == in_parts and sum(len(sent) for _, sent, _ in whole) >= 100
+    timed = {"compute_ms", "pipeline_ms"}  # wall clock
+    records = [
+        [(topic, t_s, {k: v for k, v in r.items() if k not in timed}) for topic, t_s, r in recs]
+        for recs in (pairs[0].sink.records, pairs[1].sink.records)
+    ]
+    assert records[0] == records[1] and len(records[0]) > 40
+    assert counters(pairs[0]) == counters(pairs[1])
+
+
+@pytest.mark.parametrize("clock", [ClockSource.LOCAL, ClockSource.PEERS])
+def test_a_quiet_step_sends_and_logs_nothing_whatever_it_receives(clock: ClockSource) -> None:
+    """What a runner relies on to answer for a step before running it (``lockstep_split``)."""
+    steps = _scripted(GcsPair(config=_off_cycle(clock)))
+    quiet = [(sent, logged) for is_quiet, sent, logged in steps if is_quiet]
+    assert 100 < len(quiet) < len(steps)  # most steps: not the cycles, heartbeats, counters
+    assert all(sent == [] and logged == 0 for sent, logged in quiet)
+    assert any(logged for _, _, logged in steps)
+    assert not steps[0][0]  # before its first step the GCS has no counters' schedule yet

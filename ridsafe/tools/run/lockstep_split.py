@@ -23,13 +23,21 @@ next message, as every message did before, so neither can block the other on a f
 Every core is given the same input, in the same order, at the same sim time as in the serial
 run, so it does the same thing.
 
-The worker also writes the log, in the time it waits for this process (one record at a time,
-looking for the next message between two). A core's records go to its process's
-:class:`LaneBuffer` (pickled when logged: a snapshot, as the recorder's own pickling is),
-each tagged with the core that logged it; this process sends its own with the datagrams, and
-the worker writes them all in the serial order (GCS(t-1), sim(t), companions by system id).
-A third process (the recorder child of a serial run) would take the core from one of the two
-at random moments and hold up both.
+Most of the GCS's steps send and log nothing (no cycle, heartbeat or counters due: the
+GCS's ``quiet_at``), yet some are its heaviest (a second's reports of the whole fleet
+arriving at once). For those the worker answers "nothing" at once and runs the step later,
+a datagram at a time while it waits for this process, and every such step before any other
+step of the GCS (``_QuietSteps``): the GCS gets the calls ``handle`` would make, in the
+same order, so it does the same thing. This process waits for them only where some are
+still pending at the GCS's next step that is not quiet.
+
+The worker also writes the log, in the time it waits for this process and has no quiet step
+left to run (one record at a time, looking for the next message between two). A core's
+records go to its process's :class:`LaneBuffer` (pickled when logged: a snapshot, as the
+recorder's own pickling is), each tagged with the core that logged it; this process sends
+its own with the datagrams, and the worker writes them all in the serial order (GCS(t-1),
+sim(t), companions by system id). A third process (the recorder child of a serial run)
+would take the core from one of the two at random moments and hold up both.
 """
 
 from __future__ import annotations
@@ -45,7 +53,7 @@ import traceback
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from multiprocessing.reduction import ForkingPickler
-from typing import Any, Protocol, cast
+from typing import Any, Protocol, cast, runtime_checkable
 
 from ridsafe.common.logsink import LogSink, Record
 from ridsafe.common.router import ByteRouter, Port
@@ -159,6 +167,20 @@ class Core(SansIoCore, Protocol):
     """A lockstep core: ``handle`` every tick, ``finish`` once at the end of the run."""
 
     def finish(self, now_s: float) -> object: ...  # what it returns is not sent
+
+
+@runtime_checkable
+class StepsInParts(Protocol):
+    """A core whose step may run in parts (``handle`` = ``begin``, ``receive``..., ``tick``)
+    and that says which steps can send and log nothing (``quiet_at``): the GCS."""
+
+    def begin(self, now_s: float) -> None: ...
+
+    def receive(self, now_s: float, inbound: Datagrams) -> None: ...
+
+    def tick(self, now_s: float) -> Datagrams: ...
+
+    def quiet_at(self, now_s: float) -> bool: ...
 
 
 class WorkerError(RuntimeError):
@@ -350,13 +372,62 @@ def _spin(conn: multiprocessing.connection.Connection) -> bool:
     return True
 
 
-class _Writer:
-    """The worker's log: records wait in order and are written while the worker waits.
-    ``times``: where the worker's ticks went (its writing and idle time counted here)."""
+class _QuietSteps:
+    """The GCS's quiet steps (``StepsInParts.quiet_at``: nothing to send or log), answered
+    for at once (nothing) and run later, a datagram at a time, while the worker waits; all
+    of them before any other step of the GCS. The GCS gets the same calls in the same order
+    as from ``handle``, so it does the same thing."""
 
-    def __init__(self, log: LogSink, first: Sequence[Laned]) -> None:
+    def __init__(self, core: StepsInParts, buffer: LaneBuffer) -> None:
+        self.core = core
+        self.buffer = buffer
+        self.pending: collections.deque[tuple[float, Datagrams]] = collections.deque()
+        self._next = -1  # of the oldest pending step: -1 to begin, then its next datagram
+
+    def defer(self, now_s: float, inbox: Datagrams) -> bool:
+        """Keep the step at ``now_s`` for later if it is quiet; False if it must run now."""
+        if not self.core.quiet_at(now_s):
+            return False
+        self.pending.append((now_s, inbox))
+        return True
+
+    def run_one(self) -> bool:
+        """One part of the oldest pending step; False if none is pending."""
+        if not self.pending:
+            return False
+        now_s, inbox = self.pending[0]
+        logged = len(self.buffer.records)
+        if self._next < 0:
+            self.core.begin(now_s)
+        elif self._next < len(inbox):
+            self.core.receive(now_s, inbox[self._next : self._next + 1])
+        else:
+            sent = self.core.tick(now_s)
+            if sent:
+                raise RuntimeError(f"a quiet step of the GCS at t={now_s:.3f} s sent {sent!r}")
+            self.pending.popleft()
+            self._next = -2
+        self._next += 1
+        if len(self.buffer.records) != logged:
+            raise RuntimeError(f"a quiet step of the GCS at t={now_s:.3f} s logged records")
+        return True
+
+    def run_all(self) -> None:
+        while self.run_one():
+            pass
+
+
+class _Writer:
+    """The worker's log: records wait in order and are written while the worker waits, after
+    the GCS's quiet steps (``quiet``). ``times``: where the worker's ticks went (its writing,
+    idle time and those steps counted here)."""
+
+    def __init__(
+        self, log: LogSink, first: Sequence[Laned], quiet: _QuietSteps | None = None
+    ) -> None:
         self.log = log
         self.pending: collections.deque[Laned] = collections.deque(first)
+        self.quiet = quiet
         self.closed = False
         self.times = PhaseTimes()
 
@@ -372,7 +443,9 @@ class _Writer:
         """The next message on ``conn``, writing pending records until it is there."""
         started = time.perf_counter()
         while not conn.poll():
-            if self.pending:
+            if self.quiet is not None and self.quiet.run_one():
+                started = self.times.add("gcs", started)
+            elif self.pending:
                 self.write_one()
                 started = self.times.add("writing", started)
             else:
@@ -410,7 +483,9 @@ def _work(
     parent_end.close()  # end of file must mean the run's process is gone
     writer: _Writer | None = None
     try:
-        writer = _Writer(open_log(), buffer.take())
+        gcs = router.cores[roles.gcs]
+        quiet = _QuietSteps(gcs, buffer) if isinstance(gcs, StepsInParts) else None
+        writer = _Writer(open_log(), buffer.take(), quiet)
         conn.send(("ok", None))  # the log is open
         _serve(conn, _Routes(router), roles, cores, buffer, writer)
         writer.close()
@@ -436,6 +511,7 @@ def _serve(
     """Answer the run's process until it says close; the log's last records are written by
     the caller (``_Writer.close``). Where the worker's ticks went: ``writer.times``."""
     gcs = cast(Core, routes.router.cores[roles.gcs])
+    quiet = writer.quiet
     mine = {name for name, _ in cores}
     order = routes.router.order
     gcs_inbox: Datagrams = []
@@ -444,15 +520,20 @@ def _serve(
         to_companions: dict[str, Datagrams] = {name: [] for name in roles.companions}
         if gcs_now_s is not None:
             started = time.perf_counter()
-            with buffer.lane(roles.gcs):
-                sent_by_gcs = gcs.handle(gcs_now_s, gcs_inbox)
-            routes.split(roles.gcs, sent_by_gcs, to_companions)
+            if quiet is None or not quiet.defer(gcs_now_s, gcs_inbox):
+                if quiet is not None:
+                    quiet.run_all()
+                with buffer.lane(roles.gcs):
+                    sent_by_gcs = gcs.handle(gcs_now_s, gcs_inbox)
+                routes.split(roles.gcs, sent_by_gcs, to_companions)
             writer.times.add("gcs", started)
             gcs_now_s = None
         writer.add(buffer.take())  # the GCS's records come before the sim's of the next tick
         theirs = {name: sent for name, sent in to_companions.items() if name not in mine}
         kind, now_s, from_sim, records = _answer_and_wait(conn, writer, ("ok", theirs))
         if kind == "finish":  # the run's companions said goodbye; now these and the GCS
+            if quiet is not None:
+                quiet.run_all()
             for name, core in cores:
                 with buffer.lane(name):
                     core.finish(now_s)
