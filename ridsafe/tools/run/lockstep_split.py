@@ -399,15 +399,16 @@ class _QuietSteps:
         logged = len(self.buffer.records)
         if self._next < 0:
             self.core.begin(now_s)
+            self._next = 0
         elif self._next < len(inbox):
             self.core.receive(now_s, inbox[self._next : self._next + 1])
+            self._next += 1
         else:
             sent = self.core.tick(now_s)
             if sent:
                 raise RuntimeError(f"a quiet step of the GCS at t={now_s:.3f} s sent {sent!r}")
             self.pending.popleft()
-            self._next = -2
-        self._next += 1
+            self._next = -1
         if len(self.buffer.records) != logged:
             raise RuntimeError(f"a quiet step of the GCS at t={now_s:.3f} s logged records")
         return True
