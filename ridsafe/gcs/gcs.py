@@ -41,7 +41,7 @@ import dataclasses
 import logging
 import math
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -489,8 +489,9 @@ class Gcs:
     # -- logging ------------------------------------------------------------------------------
 
     def _log_output(self, now_s: float, output: CycleOutput, sent: list[m.UnsafeRegionMsg]) -> None:
-        for uas_id, verdicts in _per_claim(output.detector_results):
-            self.sink.log(topics.DETECTOR_STATS, now_s, {"uas_id": uas_id, "detectors": verdicts})
+        for results in output.claim_results:
+            if results:
+                self.sink.log(topics.DETECTOR_STATS, now_s, _verdicts_record(results))
         if output.channel is not None:
             self.sink.log(topics.GCS_CHANNEL, now_s, dataclasses.asdict(output.channel))
         for change in output.alert_changes:
@@ -534,26 +535,17 @@ def _alert(t_s: float, change: AlertChange) -> m.SpoofAlert:
     )
 
 
-def _per_claim(
-    results: Iterable[DetectorResult],
-) -> Iterator[tuple[str, dict[str, dict[str, float | bool]]]]:
-    """A cycle's detector results (every detector's on one claim, then the next claim's) as
-    one ``/gcs/detector_stats`` record per claim: (uas_id, {detector: its verdict})."""
-    uas_id: str | None = None
-    verdicts: dict[str, dict[str, float | bool]] = {}
-    for result in results:
-        name = _DETECTOR_NAMES[result.detector]
-        if result.uas_id != uas_id or name in verdicts:  # the next claim's
-            if uas_id is not None:
-                yield uas_id, verdicts
-            uas_id, verdicts = result.uas_id, {}
-        verdicts[name] = {
-            "statistic": float(result.statistic),
-            "threshold": float(result.threshold),
-            "decision": bool(result.decision),
+def _verdicts_record(results: tuple[DetectorResult, ...]) -> dict[str, object]:
+    """The ``/gcs/detector_stats`` record of one claim: every detector's verdict on it."""
+    verdicts = {
+        _DETECTOR_NAMES[r.detector]: {
+            "statistic": float(r.statistic),
+            "threshold": float(r.threshold),
+            "decision": bool(r.decision),
         }
-    if uas_id is not None:
-        yield uas_id, verdicts
+        for r in results
+    }
+    return {"uas_id": results[0].uas_id, "detectors": verdicts}
 
 
 def _alert_record(change: AlertChange) -> dict[str, object]:

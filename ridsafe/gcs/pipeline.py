@@ -208,12 +208,12 @@ class EstimationPipeline:
         start = time.perf_counter()
         for track in self._tracks.values():
             track.fixed_this_cycle = False
-        results: list[DetectorResult] = []
+        results: list[tuple[DetectorResult, ...]] = []
         changes: list[AlertChange] = []
         usable = [c for c in self._admit(now_s, claims) if self._usable(c)]
         for claim, detected in zip(usable, self._detect(usable), strict=True):
             claim_results = detected if self._review is None else self._review(claim, detected)
-            results.extend(claim_results)
+            results.append(claim_results)
             self._note_suspicion(claim.uas_id, claim_results)
             changes.extend(self._maybe_raise(claim.uas_id, claim.t_s, claim_results))
             live = self._tracks.get(claim.uas_id)
@@ -428,7 +428,7 @@ class EstimationPipeline:
     def _outputs(
         self,
         now_s: float,
-        results: list[DetectorResult],
+        results: list[tuple[DetectorResult, ...]],
         changes: list[AlertChange],
         deleted: list[str],
     ) -> CycleOutput:
@@ -461,7 +461,7 @@ class EstimationPipeline:
                 )
             )
         return CycleOutput(
-            detector_results=tuple(results),
+            claim_results=tuple(results),
             alert_changes=tuple(changes),
             tracks=tuple(estimates),
             regions=tuple(regions),

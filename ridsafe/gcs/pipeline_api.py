@@ -191,12 +191,18 @@ class ChannelDecision:
 
 @dataclass(frozen=True)
 class CycleOutput:
-    detector_results: tuple[DetectorResult, ...] = ()
+    #: every detector's result on each claim the cycle ran, a tuple per claim in their order
+    claim_results: tuple[tuple[DetectorResult, ...], ...] = ()
     alert_changes: tuple[AlertChange, ...] = ()
     tracks: tuple[TrackEstimate, ...] = ()
     regions: tuple[UnsafeRegion, ...] = ()
     deleted_tracks: tuple[str, ...] = ()  # uas_ids whose track was deleted this cycle
     channel: ChannelDecision | None = None  # the GCS changed (or fitted again) its channel
+
+    @property
+    def detector_results(self) -> tuple[DetectorResult, ...]:
+        """Every result of the cycle, claim after claim."""
+        return tuple(r for results in self.claim_results for r in results)
 
 
 class GcsPipeline(Protocol):

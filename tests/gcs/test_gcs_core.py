@@ -21,7 +21,6 @@ from ridsafe.common import codec, frames, pathloss, topics
 from ridsafe.common import messages as m
 from ridsafe.common.ellipsoid import inside
 from ridsafe.common.logsink import MemorySink
-from ridsafe.gcs import gcs as gcs_core
 from ridsafe.gcs.config import ClockSource, GcsConfig
 from ridsafe.gcs.gcs import Gcs, ned_upper_triangle, peer_endpoint
 from ridsafe.gcs.pipeline import EstimationPipeline
@@ -70,19 +69,20 @@ class FakePipeline:
         self.calls.append((now_s, tuple(transmissions)))
         if self.fail_at_s is not None and abs(now_s - self.fail_at_s) < 1e-9:
             raise RuntimeError("numerical trouble")
-        results = tuple(
-            DetectorResult(t.uas_id, m.RidsafeDetector.NIS, 2.0, 9.0, False) for t in transmissions
+        per_claim = tuple(
+            (DetectorResult(t.uas_id, m.RidsafeDetector.NIS, 2.0, 9.0, False),)
+            for t in transmissions
         )
         changes: tuple[AlertChange, ...] = ()
         if not self.raised and now_s >= self.alert_at_s - 1e-9:
             self.raised = True
             changes = (AlertChange(SPOOF, m.RidsafeDetector.FORCED, 1.0, 0.5, m.AlertState.RAISED),)
         if not self.raised or self.deleted:
-            return CycleOutput(results, changes)
+            return CycleOutput(per_claim, changes)
         if now_s >= self.delete_at_s - 1e-9:
             self.deleted = True
-            return CycleOutput(results, changes, deleted_tracks=(SPOOF,))
-        return CycleOutput(results, changes, (self.track(now_s),), (self.region(now_s),))
+            return CycleOutput(per_claim, changes, deleted_tracks=(SPOOF,))
+        return CycleOutput(per_claim, changes, (self.track(now_s),), (self.region(now_s),))
 
     def track(self, now_s: float) -> TrackEstimate:
         return TrackEstimate(
@@ -515,23 +515,33 @@ def _cov_matrix(upper: tuple[float, ...]) -> np.ndarray:
 
 
 def test_detector_stats_are_one_record_per_claim_with_every_detectors_verdict() -> None:
-    """Two claims of one transmitter in a cycle stay two records; each holds its detectors."""
-    nis, mlat = m.RidsafeDetector.NIS, m.RidsafeDetector.MLAT
-    results = [
-        DetectorResult("A", nis, 1.0, 9.0, False),
-        DetectorResult("A", mlat, 2.0, 8.0, False),
-        DetectorResult("A", nis, 10.0, 9.0, True),  # A's next claim
-        DetectorResult("A", mlat, 3.0, 8.0, False),
-        DetectorResult("B", nis, 4.0, 9.0, False),
-    ]
-    records = list(gcs_core._per_claim(results))
-    assert [(uas_id, list(v)) for uas_id, v in records] == [
+    """Two claims of one transmitter in a cycle stay two records, even where their detectors
+    differ; each holds its own detectors' verdicts; a claim with none logs nothing."""
+    nis, mlat, cusum = m.RidsafeDetector.NIS, m.RidsafeDetector.MLAT, m.RidsafeDetector.CUSUM
+    per_claim = (
+        (DetectorResult("A", nis, 1.0, 9.0, False), DetectorResult("A", mlat, 2.0, 8.0, False)),
+        (DetectorResult("A", cusum, 10.0, 9.0, True),),  # A's next claim
+        (),
+        (DetectorResult("B", nis, 4.0, 9.0, False),),
+    )
+
+    class Fixed:
+        def step(self, now_s: float, claims: Sequence[ObservedClaim]) -> CycleOutput:
+            return CycleOutput(per_claim)
+
+    sink = MemorySink()
+    Gcs(GcsConfig(), ORIGIN, Fixed(), sink).handle(0.0, [])
+    records = [r for _, r in sink.on(topics.DETECTOR_STATS)]
+    assert [(r["uas_id"], list(r["detectors"])) for r in records] == [
         ("A", ["nis", "mlat"]),
-        ("A", ["nis", "mlat"]),
+        ("A", ["cusum"]),
         ("B", ["nis"]),
     ]
-    assert records[1][1]["nis"] == {"statistic": 10.0, "threshold": 9.0, "decision": True}
-    assert list(gcs_core._per_claim([])) == []
+    assert records[1]["detectors"]["cusum"] == {
+        "statistic": 10.0,
+        "threshold": 9.0,
+        "decision": True,
+    }
 
 
 def _scripted(pair: GcsPair) -> list[tuple[bool, list[tuple[str, bytes]], int]]:
