@@ -266,13 +266,22 @@ class Gcs:
         clock, the first with a clock, the due ones), so it holds as well for a step whose
         earlier quiet steps have not run yet."""
         sim_now = self._time.sim_s(now_s)
-        counters = self._next_counters_s
-        if sim_now is None or counters is None or sim_now >= counters - _EPS_S:
+        if sim_now is None or self._next_counters_s is None:
             return False
-        if now_s >= self._next_heartbeat_s - _EPS_S:
-            return False
-        cycle = self._next_cycle
-        return cycle is None or sim_now < cycle * self.config.cycle_s - _EPS_S
+        return not (
+            self._counters_due(sim_now) or self._cycle_due(sim_now) or self._heartbeat_due(now_s)
+        )
+
+    def _cycle_due(self, sim_now: float) -> bool:
+        index = self._next_cycle
+        return index is not None and sim_now >= index * self.config.cycle_s - _EPS_S
+
+    def _counters_due(self, sim_now: float) -> bool:
+        due_s = self._next_counters_s
+        return due_s is not None and sim_now >= due_s - _EPS_S
+
+    def _heartbeat_due(self, now_s: float) -> bool:
+        return now_s >= self._next_heartbeat_s - _EPS_S
 
     def tick(self, now_s: float) -> Datagrams:
         """The rest of the step at ``now_s`` (after :meth:`receive`): peers, cycle, counters,
@@ -282,7 +291,7 @@ class Gcs:
         if sim_now is not None:
             self._maybe_cycle(sim_now)
             self._maybe_log_counters(sim_now)
-        if now_s >= self._next_heartbeat_s - _EPS_S:
+        if self._heartbeat_due(now_s):
             self._next_heartbeat_s = now_s + 1.0 / self.config.heartbeat_hz
             heartbeat = m.Heartbeat(
                 int(m.MavType.GCS), int(m.MavAutopilot.INVALID), 0, 0, int(m.MavState.ACTIVE)
@@ -390,7 +399,7 @@ class Gcs:
 
     def _maybe_cycle(self, sim_now: float) -> None:
         index = self._next_cycle
-        if index is None or sim_now < index * self.config.cycle_s - _EPS_S:
+        if index is None or not self._cycle_due(sim_now):
             return
         current = math.floor(sim_now / self.config.cycle_s + _EPS_S)
         self.counters.cycles_skipped += max(0, current - index)
@@ -507,7 +516,7 @@ class Gcs:
     def _maybe_log_counters(self, sim_now: float) -> None:
         if self._next_counters_s is None:
             self._next_counters_s = sim_now + self.config.counters_period_s
-        elif sim_now >= self._next_counters_s - _EPS_S:
+        elif self._counters_due(sim_now):
             self._next_counters_s = sim_now + self.config.counters_period_s
             self._log_counters(sim_now)
 
