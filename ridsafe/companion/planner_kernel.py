@@ -226,11 +226,11 @@ def _score_bounded_kernel(
     goal_bound = np.empty(n_a)  # U_a + b_a
     key = np.empty(n_a)  # -((U_a + h_a,1) + b_a): ascending = most promising first
     u_h1 = np.empty((n_a, 2))  # U_a, h_a,1
+    first = np.empty((n_a, 3))  # each rollout's first sample
+    _goal_bounds(p0, v0, goal, va, tau, kp, goal_bound, ok, first)
     for a in range(n_a):
-        _rollout_into(p0, v0, va[a], tau, kp.accel, path)
-        ok[a] = _envelope_and_bound(path, goal, p0[2], kp, goal_bound, a)
         conflicts[:] = 0
-        x, y, z = path[0, 0], path[0, 1], path[0, 2]
+        x, y, z = first[a, 0], first[a, 1], first[a, 2]
         h_first = _hazard_at(x, y, z, 0, near, n_near, ln_reward, conflicts, regions, kp)[0]
         key[a] = -((goal_bound[a] + h_first) + bias[a])
         u_h1[a, 0], u_h1[a, 1] = goal_bound[a], h_first
@@ -282,27 +282,57 @@ def _update_best(
 
 
 @jit_inline
-def _envelope_and_bound(
-    path: FloatArray, goal: FloatArray, z0: float, kp: KernelParams, bound: FloatArray, a: int
-) -> bool:
-    """E_a of a rolled-out path, and U_a (module docstring) stored in ``bound[a]``; a goal
-    term that is not a positive decay of distance has no such bound (+inf)."""
-    envelope_ok, lo, hi, total = True, np.inf, 0.0, 0.0
-    for k in range(path.shape[0]):
-        x, y, z = path[k, 0] - goal[0], path[k, 1] - goal[1], path[k, 2] - goal[2]
-        d = math.sqrt(x * x + y * y + kp.goal_vertical_weight**2 * z * z)  # as _goal_term
-        lo, hi, total = min(lo, d), max(hi, d), total + d
-        envelope_ok = envelope_ok and _in_altitude_band(path[k, 2], z0, kp)
-    if not (kp.goal_coef > 0.0 and kp.goal_ln_decay < 0.0):
-        bound[a] = np.inf
-        return envelope_ok
-    value = _goal_value(lo, kp)
-    if hi < kp.goal_gate and hi - lo > 1e-6:  # the chord: V is convex below the gate
-        mean = total / path.shape[0]
-        chord = (value * (hi - mean) + _goal_value(hi, kp) * (mean - lo)) / (hi - lo)
-        value = min(value, chord)
-    bound[a] = value + BOUND_SLACK * (value + kp.goal_coef * BOUND_SLACK)
-    return envelope_ok
+def _goal_bounds(
+    p0: FloatArray,
+    v0: FloatArray,
+    goal: FloatArray,
+    va: FloatArray,
+    tau: FloatArray,
+    kp: KernelParams,
+    bound: FloatArray,
+    ok: NDArray[np.bool_],
+    first: FloatArray,
+) -> None:
+    """Of every action a: U_a (module docstring) in ``bound[a]``, E_a in ``ok[a]`` and its
+    rollout's first sample in ``first[a]``. Sample-major, every action at once: the inner
+    loop has no branch and reads contiguous columns, so the compiler vectorises it (the
+    same arithmetic per action as one rollout at a time, the same bits; a quarter less time
+    for the whole kernel, ``docs/results/benchmarks.md``). A goal term that is not a
+    positive decay of distance has no such bound (+inf)."""
+    n_a, n_k = va.shape[0], tau.shape[0]
+    # Every action's ramp and end velocity, a contiguous column each (vector loads).
+    dv, t_ramp, scale = np.empty((3, n_a)), np.empty(n_a), np.empty(n_a)
+    v_end = np.ascontiguousarray(va.T)
+    for a in range(n_a):
+        ramp = _ramp(v0, va[a], kp.accel)
+        dv[0, a], dv[1, a], dv[2, a], t_ramp[a], scale[a] = ramp
+        first[a, 0], first[a, 1], first[a, 2] = _position(p0, v0, va[a], ramp, tau[0])
+    lo, hi, total = np.full(n_a, np.inf), np.zeros(n_a), np.zeros(n_a)
+    outside = np.zeros(n_a)  # samples outside the altitude band
+    w2 = kp.goal_vertical_weight**2
+    for k in range(n_k):
+        for a in range(n_a):
+            ti, rest, half_a_t2 = _ramp_times(tau[k], t_ramp[a], scale[a])
+            x = _axis(p0[0], v0[0], v_end[0, a], dv[0, a], ti, rest, half_a_t2)
+            y = _axis(p0[1], v0[1], v_end[1, a], dv[1, a], ti, rest, half_a_t2)
+            z = _axis(p0[2], v0[2], v_end[2, a], dv[2, a], ti, rest, half_a_t2)
+            ex, ey, ez = x - goal[0], y - goal[1], z - goal[2]
+            d = math.sqrt(ex * ex + ey * ey + w2 * ez * ez)  # as _goal_term
+            lo[a], hi[a], total[a] = min(lo[a], d), max(hi[a], d), total[a] + d
+            outside[a] += 0.0 if _in_altitude_band(z, p0[2], kp) else 1.0
+    for a in range(n_a):
+        ok[a] = outside[a] == 0.0
+        if not (kp.goal_coef > 0.0 and kp.goal_ln_decay < 0.0):
+            bound[a] = np.inf
+            continue
+        value = _goal_value(lo[a], kp)
+        if hi[a] < kp.goal_gate and hi[a] - lo[a] > 1e-6:  # the chord: V is convex below the gate
+            mean = total[a] / n_k
+            chord = (value * (hi[a] - mean) + _goal_value(hi[a], kp) * (mean - lo[a])) / (
+                hi[a] - lo[a]
+            )
+            value = min(value, chord)
+        bound[a] = value + BOUND_SLACK * (value + kp.goal_coef * BOUND_SLACK)
 
 
 @jit_inline
@@ -475,14 +505,28 @@ def _position(
 ) -> tuple[float, float, float]:
     """p(tau) of actions eq. 2, given its ``_ramp``."""
     dvx, dvy, dvz, t_ramp, scale = ramp
-    ti = min(tau, t_ramp)
-    rest = tau - ti
-    half_a_t2 = scale * ti * ti
+    ti, rest, half_a_t2 = _ramp_times(tau, t_ramp, scale)
     return (
-        p0[0] + v0[0] * ti + half_a_t2 * dvx + va[0] * rest,
-        p0[1] + v0[1] * ti + half_a_t2 * dvy + va[1] * rest,
-        p0[2] + v0[2] * ti + half_a_t2 * dvz + va[2] * rest,
+        _axis(p0[0], v0[0], va[0], dvx, ti, rest, half_a_t2),
+        _axis(p0[1], v0[1], va[1], dvy, ti, rest, half_a_t2),
+        _axis(p0[2], v0[2], va[2], dvz, ti, rest, half_a_t2),
     )
+
+
+@jit_inline
+def _ramp_times(tau: float, t_ramp: float, scale: float) -> tuple[float, float, float]:
+    """(time on the ramp, time after it, half the acceleration x that time squared per unit
+    dv) at tau."""
+    ti = min(tau, t_ramp)
+    return ti, tau - ti, scale * ti * ti
+
+
+@jit_inline
+def _axis(
+    p0: float, v0: float, va: float, dv: float, ti: float, rest: float, half_a_t2: float
+) -> float:
+    """One coordinate of p(tau) (actions eq. 2): ramp from v0 by dv, then va."""
+    return p0 + v0 * ti + half_a_t2 * dv + va * rest
 
 
 @jit_inline
@@ -548,9 +592,9 @@ def _extension_loss(
 def _in_altitude_band(z: float, z0: float, kp: KernelParams) -> bool:
     """E_a at one sample: not below the floor (above the ceiling) unless no lower (higher)
     than the aircraft is now, within ENVELOPE_SLACK_M (NED: z is down)."""
-    below = z > kp.floor_down and z > z0 + ENVELOPE_SLACK_M
-    above = z < kp.ceiling_down and z < z0 - ENVELOPE_SLACK_M
-    return not (below or above)
+    below = (z > kp.floor_down) & (z > z0 + ENVELOPE_SLACK_M)  # & and |: no branch
+    above = (z < kp.ceiling_down) & (z < z0 - ENVELOPE_SLACK_M)
+    return not (below | above)
 
 
 @jit_inline
