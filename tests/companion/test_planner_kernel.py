@@ -14,7 +14,7 @@ from ridsafe.companion.planner import choose_action
 from ridsafe.companion.planner_api import Neighbour, Region
 from ridsafe.companion.planner_config import PlannerConfig
 from ridsafe.companion.planner_eval import KernelParams, RolloutScores, build_scene, score_actions
-from ridsafe.companion.planner_kernel import TIGHTEN_AFTER
+from ridsafe.companion.planner_kernel import TIGHTEN_AFTER, _goal_bounds, _rollout_into
 
 FloatArray = NDArray[np.float64]
 CHI2_95 = 7.814727903251178
@@ -136,3 +136,30 @@ def test_hazards_met_later_tighten_the_bound() -> None:
     is the one scoring every action makes (``_both`` asserts it)."""
     _, bounded, _, _, _ = _both(PlannerConfig(), 36)
     assert TIGHTEN_AFTER < bounded.n_scored < 300
+
+
+@pytest.mark.parametrize("name", sorted(CONFIGS))
+def test_every_goal_bound_is_above_its_goal_term(name: str) -> None:
+    """The vectorised first pass (``planner_kernel._goal_bounds``, every action at once): its
+    U_a is at least the G_a that scoring finds, E_a is scoring's, and each rollout's first
+    sample is the rollout's own, bit for bit."""
+    cfg = CONFIGS[name]
+    kp = KernelParams.from_config(cfg)
+    tight = 0
+    for seed in range(60):
+        now, p0, v0, goal, neighbours, regions = _scene_case(np.random.default_rng(seed))
+        actions = build_action_set(cfg, heading_to_rad(p0, goal))
+        scene = build_scene(now, p0, neighbours, regions, cfg)
+        every = score_actions(p0, v0, goal, actions, scene, kp)
+        va = np.ascontiguousarray(actions.velocity_ned_m_s)
+        n = len(actions)
+        bound, ok, first = np.empty(n), np.empty(n, dtype=np.bool_), np.empty((n, 3))
+        _goal_bounds(p0, v0, goal, va, scene.tau_s, kp, bound, ok, first)
+        assert np.all(bound >= every.goal)
+        np.testing.assert_array_equal(ok, every.envelope_ok)
+        path = np.empty((scene.tau_s.shape[0], 3))
+        for a in range(0, n, 7):
+            _rollout_into(p0, v0, va[a], scene.tau_s, kp.accel, path)
+            np.testing.assert_array_equal(first[a], path[0])
+        tight += int(np.count_nonzero(bound - every.goal < 1e-3 * np.abs(every.goal) + 1e-12))
+    assert tight > 0  # some bounds are (nearly) the goal term itself: not +inf everywhere
