@@ -28,6 +28,7 @@ at the top of the entry) stays as shorthand for ``motion: line`` + ``claim: offs
 
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass
 from typing import Literal
 
@@ -100,6 +101,15 @@ def _check_points(name: str, points: tuple[Vec3, ...], minimum: int) -> None:
         raise FieldValueError(name, f"expected at least {minimum} points, got {len(points)}")
     for i, p in enumerate(points):
         check_finite_vector(f"{name}[{i}]", p, AREA_LIMIT_M, " m")
+
+
+class AdversaryRole(enum.StrEnum):
+    """What a transmitter outside the fleet is, as the logs' ``role`` says (a plain string
+    there: a record read back compares equal to these)."""
+
+    SPOOFER = "spoofer"  # broadcasts a claim that is not where it is
+    BYSTANDER = "bystander"  # an honest aircraft outside the fleet (claim ``truth``)
+    GHOST = "ghost"  # a transmitter broadcasting an aircraft that does not exist
 
 
 @dataclass(frozen=True)
@@ -312,9 +322,10 @@ class SpooferConfig:
         return ClaimConfig("offset", offset_enu_m=self.offset_enu_m)
 
     @property
-    def role(self) -> Literal["spoofer", "bystander"]:
+    def role(self) -> AdversaryRole:
         """``bystander`` when it tells the truth (claim ``truth``), else ``spoofer``."""
-        return "bystander" if self.resolved_claim.kind == "truth" else "spoofer"
+        truthful = self.resolved_claim.kind == "truth"
+        return AdversaryRole.BYSTANDER if truthful else AdversaryRole.SPOOFER
 
 
 @dataclass(frozen=True)

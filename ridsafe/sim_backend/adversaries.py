@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 
 from ridsafe.common import rng
 from ridsafe.common.adversary import (
+    AdversaryRole,
     ClaimConfig,
     GhostConfig,
     SpooferConfig,
@@ -47,7 +48,7 @@ class Adversary:
 
     index: int
     serial: str
-    role: str  # "spoofer", "bystander" or "ghost"
+    role: AdversaryRole
     broadcaster: SpooferBroadcaster
     power: TxPowerDraw | None
     airborne: bool  # launched in AUTO (a ghost on the ground is not)
@@ -81,7 +82,7 @@ class Adversaries:
                 Adversary(
                     first_ghost + k,
                     ghost.serial,
-                    "ghost",
+                    AdversaryRole.GHOST,
                     self._broadcaster(ghost.serial, ghost.claim, ghost, first=False),
                     self._power(ghost.serial, ghost.tx_power),
                     ghost.transmitter_enu_m[2] >= GHOST_HOVER_MIN_Z_M,
@@ -219,7 +220,7 @@ class Adversaries:
                 {
                     "sysid": a.index + 1,
                     "serial": a.serial,
-                    "role": a.role,
+                    "role": a.role.value,
                     "claimed_p_enu_m": np.round(claimed, 4).tolist(),
                     "claimed_v_enu_m_s": np.round(claimed_v, 4).tolist(),
                     "silent": silent,

@@ -35,6 +35,7 @@ from numpy.typing import NDArray
 from ridsafe.common import codec, rng, topics
 from ridsafe.common import messages as m
 from ridsafe.common import protocol_messages as pm
+from ridsafe.common.adversary import AdversaryRole
 from ridsafe.common.errors import ClockError
 from ridsafe.common.logsink import LogSink, NullSink
 from ridsafe.common.scenario import Scenario
@@ -169,7 +170,7 @@ class SimBackend:
             [scenario.tx_power_dbm_of(i + 1) for i in range(self.n_vehicles)],
             rng.stream(scenario.seed, "sim/radio"),
         )
-        spoofers = [a for a in self.adversaries.items if a.role == "spoofer"]
+        spoofers = [a for a in self.adversaries.items if a.role is AdversaryRole.SPOOFER]
         self.spoofer_index = spoofers[0].index if spoofers else None  # the first spoofer
         self.shell = AppShell("sim")
         self.endpoints = {

@@ -53,6 +53,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ridsafe.common import topics
+from ridsafe.common.adversary import AdversaryRole
 from ridsafe.common.ellipsoid import mahalanobis2
 from ridsafe.common.messages import RegionFlags
 from ridsafe.tools.analysis.encounters import airborne, pair_entry_events
@@ -161,7 +162,7 @@ def per_adversary(run: RunLog, min_height_m: float) -> list[dict[str, Any]]:
         column = truth.column(int(adversary["sysid"]))
         alert = first_alert_s(run, serial)
         row: dict[str, Any] = {"serial": serial, "role": role, "alert_time_s": alert}
-        if column is not None and role == "spoofer":
+        if column is not None and role == AdversaryRole.SPOOFER:
             others = np.full(benign.size, column, dtype=np.int64)
             row["nmac_benign"] = (
                 pair_entry_events(truth.p_enu_m, flying, benign, others, run.nmac_threshold_m)
@@ -174,7 +175,7 @@ def per_adversary(run: RunLog, min_height_m: float) -> list[dict[str, Any]]:
             row["regions_on_ground"] = _on_ground_count(run, serial)
             if serial in lies:
                 row.update(_harm(*lies[serial], alert, limit_m))
-        elif column is not None and role == "ghost":
+        elif column is not None and role == AdversaryRole.GHOST:
             transmitter = np.asarray(adversary.get("transmitter_enu_m"), dtype=np.float64)
             row["region_containment"] = _containment(run, serial, column, -np.inf, transmitter)
             mine = run.regions.select(run.regions.uas_id == serial)
@@ -213,21 +214,22 @@ def adversary_metrics(
         return {}
     path, arrival = _path_and_arrival(run, arrivals_s)
     out: Metrics = {"benign_path_length_m": path, "mean_arrival_time_s": arrival}
-    spoofers = [a for a in listed if a.get("role") == "spoofer"]
-    ghosts = [a for a in listed if a.get("role") == "ghost"]
-    bystanders = [a for a in listed if a.get("role") == "bystander"]
+    spoofers = [a for a in listed if a.get("role") == AdversaryRole.SPOOFER]
+    ghosts = [a for a in listed if a.get("role") == AdversaryRole.GHOST]
+    bystanders = [a for a in listed if a.get("role") == AdversaryRole.BYSTANDER]
     rows = per_adversary(run, min_height_m)
     out["spoofers_alerted_before_harm"] = sum(
-        1 for r in rows if r["role"] == "spoofer" and r.get("alerted_before_harm")
+        1 for r in rows if r["role"] == AdversaryRole.SPOOFER and r.get("alerted_before_harm")
     )
-    out["lie_at_alert_m"] = _mean([r.get("lie_at_alert_m") for r in rows if r["role"] == "spoofer"])
+    lies = [r.get("lie_at_alert_m") for r in rows if r["role"] == AdversaryRole.SPOOFER]
+    out["lie_at_alert_m"] = _mean(lies)
     out["spoofer_regions_on_ground"] = sum(
-        int(r.get("regions_on_ground") or 0) for r in rows if r["role"] == "spoofer"
+        int(r.get("regions_on_ground") or 0) for r in rows if r["role"] == AdversaryRole.SPOOFER
     )
     if len(spoofers) <= 1 and not ghosts and not bystanders:
         return out
-    spoofer_rows = [r for r in rows if r["role"] == "spoofer"]
-    ghost_rows = [r for r in rows if r["role"] == "ghost"]
+    spoofer_rows = [r for r in rows if r["role"] == AdversaryRole.SPOOFER]
+    ghost_rows = [r for r in rows if r["role"] == AdversaryRole.GHOST]
     serials = {str(a["serial"]) for a in spoofers + ghosts}
     containments = [r.get("containment_rate") for r in spoofer_rows]
     known = [c for c in containments if c is not None]
@@ -249,7 +251,9 @@ def adversary_metrics(
     if bystanders:
         out["bystander_count"] = len(bystanders)
         out["bystanders_alerted"] = sum(
-            1 for r in rows if r["role"] == "bystander" and r["alert_time_s"] is not None
+            1
+            for r in rows
+            if r["role"] == AdversaryRole.BYSTANDER and r["alert_time_s"] is not None
         )
     if ghost_rows:
         out["ghosts_alerted"] = sum(1 for r in ghost_rows if r["alert_time_s"] is not None)
@@ -284,7 +288,7 @@ def pad_holds(path: Path, end_s: float, roles: Mapping[str, str]) -> Metrics:
         if event == "pad_blocked":
             what, _, who = str(record.get("detail", "")).rpartition(": ")[2].partition(" ")
             kind = "aircraft" if what == "aircraft" else "region"
-            kind = "ghost" if kind == "region" and roles.get(who) == "ghost" else kind
+            kind = "ghost" if kind == "region" and roles.get(who) == AdversaryRole.GHOST else kind
             since[sysid] = (t_s, kind)
             if kind == "ghost":
                 by_ghost.add(sysid)

@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ridsafe.common import topics
+from ridsafe.common.adversary import AdversaryRole
 from ridsafe.tools.runlog.reader import LogReadError, read_records
 
 __all__ = [
@@ -230,7 +231,8 @@ def _spoofer_lies(
         p = record.get("p_enu_m")
         sysids = record.get("sysid") or []
         for item in record.get("adversaries") or ():
-            if p is None or item.get("role") != "spoofer" or item["sysid"] not in sysids:
+            liar = item.get("role") == AdversaryRole.SPOOFER
+            if p is None or not liar or item["sysid"] not in sysids:
                 continue
             true = np.asarray(p[sysids.index(item["sysid"])], dtype=np.float64)
             lie = float(np.linalg.norm(np.asarray(item["claimed_p_enu_m"]) - true))

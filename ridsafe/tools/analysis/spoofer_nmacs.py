@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from ridsafe.common.adversary import AdversaryRole
 from ridsafe.common.ellipsoid import mahalanobis2
 from ridsafe.tools.analysis.adversary_metrics import adversaries_of, first_alert_s
 from ridsafe.tools.analysis.encounters import airborne, entry_event_samples, pair_masks
@@ -65,7 +66,7 @@ def _spoofers(run: RunLog) -> list[tuple[int, str]]:
     listed = [
         (int(a["sysid"]), str(a["serial"]))
         for a in adversaries_of(run)
-        if a.get("role") == "spoofer"
+        if a.get("role") == AdversaryRole.SPOOFER
     ]
     if listed or run.spoofer_sysid is None:
         return listed

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, NoReturn
 import yaml
 from tqdm import tqdm
 
+from ridsafe.common.adversary import AdversaryRole
 from ridsafe.common.config import to_mapping
 from ridsafe.common.errors import RidsafeError
 from ridsafe.companion.planners import PLANNERS
@@ -107,7 +108,8 @@ def run(args: argparse.Namespace) -> int:
     scenario_path.write_text(yaml.safe_dump(to_mapping(loaded), sort_keys=False))
     n = len(loaded.scenario.aircraft)
     roles = [s.role for s in loaded.scenario.all_spoofers]
-    n_spoofers, n_bystanders = roles.count("spoofer"), roles.count("bystander")
+    n_spoofers = roles.count(AdversaryRole.SPOOFER)
+    n_bystanders = roles.count(AdversaryRole.BYSTANDER)
     n_ghosts = len(loaded.scenario.ghosts)
     spoofer = f"{n_spoofers or 'no'} spoofer{'' if n_spoofers == 1 else 's'}"
     spoofer += f" + {n_ghosts} ghost{'' if n_ghosts == 1 else 's'}" if n_ghosts else ""

@@ -12,6 +12,7 @@ import time
 
 from ridsafe import __version__
 from ridsafe.common import topics
+from ridsafe.common.adversary import AdversaryRole
 from ridsafe.common.config import to_mapping
 from ridsafe.common.logsink import LogSink
 from ridsafe.tools.run.scenario import ScenarioFile
@@ -26,7 +27,8 @@ def run_meta(loaded: ScenarioFile, mode: str, planner: str) -> dict[str, object]
     scenario = loaded.scenario
     spoofer = None
     # the first spoofer that lies (every one, bystanders too: ``adversaries``)
-    k = next((k for k, s in enumerate(scenario.all_spoofers) if s.role == "spoofer"), None)
+    liars = (k for k, s in enumerate(scenario.all_spoofers) if s.role is AdversaryRole.SPOOFER)
+    k = next(liars, None)
     if k is not None:
         first = scenario.all_spoofers[k]
         claim = first.resolved_claim
@@ -70,7 +72,7 @@ def adversaries(loaded: ScenarioFile) -> list[dict[str, object]]:
             {
                 "sysid": scenario.first_spoofer_sysid + k,
                 "serial": spoofer.serial,
-                "role": spoofer.role,
+                "role": spoofer.role.value,
                 "motion": spoofer.resolved_motion.kind,
                 "claim": spoofer.resolved_claim.kind,
                 "tx_power": "fixed" if power is None else power.kind,
@@ -81,7 +83,7 @@ def adversaries(loaded: ScenarioFile) -> list[dict[str, object]]:
             {
                 "sysid": scenario.first_ghost_sysid + k,
                 "serial": ghost.serial,
-                "role": "ghost",
+                "role": AdversaryRole.GHOST.value,
                 "transmitter_enu_m": list(ghost.transmitter_enu_m),
                 "claim": ghost.claim.kind,
                 "tx_power": "fixed" if ghost.tx_power is None else ghost.tx_power.kind,
