@@ -309,15 +309,13 @@ def _goal_bounds(
         first[a, 0], first[a, 1], first[a, 2] = _position(p0, v0, va[a], ramp, tau[0])
     lo, hi, total = np.full(n_a, np.inf), np.zeros(n_a), np.zeros(n_a)
     outside = np.zeros(n_a)  # samples outside the altitude band
-    w2 = kp.goal_vertical_weight**2
     for k in range(n_k):
         for a in range(n_a):
             ti, rest, half_a_t2 = _ramp_times(tau[k], t_ramp[a], scale[a])
             x = _axis(p0[0], v0[0], v_end[0, a], dv[0, a], ti, rest, half_a_t2)
             y = _axis(p0[1], v0[1], v_end[1, a], dv[1, a], ti, rest, half_a_t2)
             z = _axis(p0[2], v0[2], v_end[2, a], dv[2, a], ti, rest, half_a_t2)
-            ex, ey, ez = x - goal[0], y - goal[1], z - goal[2]
-            d = math.sqrt(ex * ex + ey * ey + w2 * ez * ez)  # as _goal_term
+            d = _goal_distance(x - goal[0], y - goal[1], z - goal[2], kp)
             lo[a], hi[a], total[a] = min(lo[a], d), max(hi[a], d), total[a] + d
             outside[a] += 0.0 if _in_altitude_band(z, p0[2], kp) else 1.0
     for a in range(n_a):
@@ -620,7 +618,13 @@ def _region_hazard(
 @jit_inline
 def _goal_term(x: float, y: float, z: float, kp: KernelParams) -> float:
     """Value eq. 1 of the goal, (x, y, z) being the offset from it."""
-    return _goal_value(math.sqrt(x * x + y * y + kp.goal_vertical_weight**2 * z * z), kp)
+    return _goal_value(_goal_distance(x, y, z, kp), kp)
+
+
+@jit_inline
+def _goal_distance(x: float, y: float, z: float, kp: KernelParams) -> float:
+    """The goal term's weighted distance (m), (x, y, z) being the offset from the goal."""
+    return math.sqrt(x * x + y * y + kp.goal_vertical_weight**2 * z * z)
 
 
 @jit_inline
