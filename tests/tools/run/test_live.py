@@ -19,10 +19,11 @@ from tests.signals import keyboard_interrupt_on_sigint
 from tests.tools.run.live_runs import start_live_run
 from tests.tools.run.output_watch import OutputWatch, wait_for_text
 
+# Below the kernel's ephemeral range, as test_live_spray's: a port-0 socket can't take them.
 PORTS = [
-    "--set", "sim.ports.companion_base=35760",
-    "--set", "sim.ports.gcs_out_base=34550",
-    "--set", "run.gcs_listen=udpin:127.0.0.1:34450",
+    "--set", "sim.ports.companion_base=29760",
+    "--set", "sim.ports.gcs_out_base=29550",
+    "--set", "run.gcs_listen=udpin:127.0.0.1:29450",
 ]  # fmt: skip
 
 

@@ -49,9 +49,12 @@ from ridsafe.tools.run.scenario import load_scenario_file
 from ridsafe.tools.runlog.reader import read_records
 from tests.tools.run.live_runs import start_live_run
 
-COMPANION_BASE, GCS_OUT_BASE, GCS_PORT = 36760, 36550, 36450  # apart from test_live's
-RELAY_PORT = 36460  # where the sprayed run's companions send to the GCS
-CLEAN_PORT_OFFSETS = (1000, 2000, 3000)  # the undisturbed runs', side by side
+# Fixed ports below the kernel's ephemeral range (32768-60999 on Linux): a socket bound to
+# port 0 anywhere on the host can never take one of them from a run (it did: "cannot bind
+# 127.0.0.1:36760: Address already in use", twice in six suites). Apart from test_live's.
+COMPANION_BASE, GCS_OUT_BASE, GCS_PORT = 30760, 30550, 30450
+RELAY_PORT = 30460  # where the sprayed run's companions send to the GCS
+CLEAN_PORT_OFFSETS = (400, 800, 1200)  # the undisturbed runs', side by side (up to 32000)
 SIM_PORTS = [COMPANION_BASE + 10 * k for k in range(4)] + [GCS_OUT_BASE + 10 * k for k in range(4)]
 SPEED, SEED, DURATION_S = 6.0, 0, 100.0
 PER_APP = 50_000  # datagrams at each app's ports
