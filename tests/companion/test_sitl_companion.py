@@ -16,7 +16,7 @@ from ridsafe.tools.run.scenario import load_scenario_file
 from tests.sitl import ROOT, arducopter, require_sitl
 
 SPEEDUP = 4.0  # SITL and companion both run 4 sim seconds per wall second
-GCS_PORT, COMPANION_PORT, INSTANCE = 46650, 46660, 7
+GCS_PORT, COMPANION_PORT, INSTANCE = 28650, 28660, 7
 
 
 @pytest.mark.slow

@@ -22,7 +22,7 @@ from tests.sim_backend.udp_sim import sim_on_udp
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil
 
-GCS_BASE, COMPANION_BASE = 44450, 45660
+GCS_BASE, COMPANION_BASE = 26450, 27660
 GEOFENCE = 0x100000  # MAV_SYS_STATUS_GEOFENCE
 mav = mavutil.mavlink
 

@@ -19,7 +19,7 @@ import pytest
 
 from tests.sitl import ROOT, arducopter, require_sitl
 
-GCS_PORT, COMPANION_PORT, INSTANCE = 46850, 46860, 9
+GCS_PORT, COMPANION_PORT, INSTANCE = 28850, 28860, 9
 
 
 @pytest.mark.slow

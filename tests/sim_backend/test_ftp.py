@@ -18,7 +18,7 @@ from tests.sim_backend.udp_sim import sim_on_udp
 
 param_ftp = pytest.importorskip("MAVProxy.modules.lib.param_ftp")
 
-GCS_BASE, COMPANION_BASE = 44550, 45760
+GCS_BASE, COMPANION_BASE = 26550, 27760
 
 
 class Reply:

@@ -15,8 +15,8 @@ import pytest
 
 from tests.sim_backend.udp_sim import height_m, north_east_m, sim_on_udp
 
-GCS_BASE = 44650
-COMPANION_BASE = 45860
+GCS_BASE = 26650
+COMPANION_BASE = 27860
 MAVPROXY = shutil.which("mavproxy.py", path=str(Path(sys.executable).parent))
 MODULES = "mode,wp,param,fence,rally,cmdlong,arm,misc"
 

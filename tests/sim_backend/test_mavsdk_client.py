@@ -17,8 +17,8 @@ from mavsdk.plugins.info.info import Info  # noqa: E402
 from mavsdk.plugins.param.param import Param  # noqa: E402
 from mavsdk.plugins.telemetry.telemetry import LandedState, Telemetry  # noqa: E402
 
-GCS_BASE = 44550
-COMPANION_BASE = 45760
+GCS_BASE = 26550
+COMPANION_BASE = 27760
 
 
 def _until(predicate: Callable[[], bool], timeout_s: float, what: str) -> None:

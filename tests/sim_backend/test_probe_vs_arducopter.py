@@ -15,8 +15,8 @@ from tests.sim_backend.mavlink_probe import ask
 from tests.sim_backend.udp_sim import sim_on_udp
 from tests.sitl import ROOT, arducopter, require_sitl
 
-SIM_GCS, SIM_COMPANION = 44750, 45960
-SITL_GCS, SITL_COMPANION, INSTANCE = 46750, 46760, 8
+SIM_GCS, SIM_COMPANION = 26750, 27960
+SITL_GCS, SITL_COMPANION, INSTANCE = 28750, 28760, 8
 ACCEPTED = 0
 # The sim's table is smaller than ArduCopter's 1,337 parameters: both must answer with many.
 DIFFERENT_BY_DESIGN = {"params"}

@@ -15,7 +15,7 @@ from tests.sim_backend.helpers import SimPair
 from tests.sim_backend.test_fence import Station, flying, go_to, set_params
 from tests.sim_backend.udp_sim import sim_on_udp
 
-GCS_BASE, COMPANION_BASE = 44350, 45560
+GCS_BASE, COMPANION_BASE = 26350, 27560
 
 
 def fly_north(station: Station, north_m: float, timeout_s: float) -> float:
