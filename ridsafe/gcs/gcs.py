@@ -14,11 +14,13 @@ Each call:
 
 1. parse every datagram on its peer's link; observation reports go to :class:`Ingest`;
 2. drop peers not heard for ``peer_timeout_s`` from the send list (they return when heard);
-3. every ``cycle_s`` of sim time: close due transmissions, ``pipeline.step``, log the cycle
+3. close the transmissions whose ``group_window_s`` is over (at every step: a claim is built
+   as soon as it is complete, not in the cycle that takes it);
+4. every ``cycle_s`` of sim time: ``pipeline.step`` on the claims closed since, log the cycle
    (``/gcs/cycle`` with the compute time, ``/gcs/detector_stats`` one record per claim with
    every detector's verdict, ``/gcs/alerts``, ``/gcs/tracks``, ``/gcs/unsafe_regions``) and
    send alerts and regions to every live peer;
-4. a GCS HEARTBEAT (MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID) at ``heartbeat_hz``; ``/app/counters``
+5. a GCS HEARTBEAT (MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID) at ``heartbeat_hz``; ``/app/counters``
    every ``counters_period_s`` and from :meth:`Gcs.finish`.
 
 Regions go out in the companions' frames: centre ENU -> WGS-84 (``frames.enu_to_geodetic``),
@@ -204,6 +206,8 @@ class Gcs:
         self._next_alert_repeat_s = 0.0
         self._last_region: dict[str, m.UnsafeRegionMsg] = {}
         self._accepted_at_cycle = 0
+        #: Transmissions closed since the last cycle (``_close_due``), for the next one.
+        self._closed: list[ObservedClaim] = []
         self._warn = RateLimitedLog(logger, config.warn_interval_s)
 
     # -- queries ------------------------------------------------------------------------------
@@ -289,6 +293,7 @@ class Gcs:
         self._expire_peers(now_s)
         sim_now = self._time.sim_s(now_s)
         if sim_now is not None:
+            self._close_due(sim_now)
             self._maybe_cycle(sim_now)
             self._maybe_log_counters(sim_now)
         if self._heartbeat_due(now_s):
@@ -406,9 +411,17 @@ class Gcs:
         self._next_cycle = current + 1
         self._cycle(sim_now)
 
+    def _close_due(self, sim_now: float) -> None:
+        """Close the transmissions whose ``group_window_s`` is over, at every step: a claim
+        is built as soon as it is complete, between the cycles, and the next cycle takes it."""
+        closed = self.ingest.close_due(sim_now)
+        if closed:
+            self._closed.extend(closed)
+
     def _cycle(self, now_s: float) -> None:
         start = time.perf_counter()  # compute time only, never sim time
-        closed = self.ingest.close_due(now_s)
+        closed, self._closed = self._closed, []
+        closed.sort(key=lambda claim: (claim.t_s, claim.uas_id))  # as one close_due sorts
         output, error = self._step_pipeline(now_s, closed)
         pipeline_ms = (time.perf_counter() - start) * 1e3
         messages: list[m.Message] = self._alert_messages(now_s, output)

@@ -218,6 +218,25 @@ def test_reports_from_four_companions_reach_the_pipeline_as_one_transmission() -
     assert pair.gcs.sysid_peers == {1: "c1", 2: "c2", 3: "c3", 4: "c4"}
 
 
+def test_a_transmission_closes_when_its_window_is_over_not_at_the_next_cycle() -> None:
+    """Closed at the first step ``group_window_s`` after its first reception (1.30 s) and
+    handed to the next cycle (1.50 s): a report that comes between the two is late, whatever
+    the cycles' phase."""
+    pair = GcsPair()
+    pair.run(0.95)
+    pair.step({"c1": [report(1, 1.0)]})  # t = 1.00
+    pair.run(1.35)
+    assert pair.gcs.ingest.open_groups == 0  # closed at 1.30, before any cycle took it
+    pair.step({"c2": [report(2, 1.0)]})  # 1.40
+    pair.run(2.0)
+    ((t_cycle, (tx,)),) = [(t, txs) for t, txs in pair.pipeline.calls if txs]
+    assert t_cycle == pytest.approx(1.5)
+    assert tx.rx_sysid.tolist() == [1]
+    assert counters(pair)["rejected_late"] == 1
+    cycles = dict(pair.sink.on(topics.GCS_CYCLE))
+    assert cycles[1.5]["n_transmissions"] == 1
+
+
 def test_the_cycle_runs_every_quarter_second_and_logs_its_compute_time() -> None:
     pair = GcsPair()
     pair.run(3.0)
