@@ -15,11 +15,12 @@ the sim and the companions run in the same process between two GCS cycles and le
 caches cold. The replay is where to profile the pipeline itself.
 
 Only the pipeline's ``step`` is replayed. The GCS's ``compute_ms`` (metric
-``gcs_update_p99_ms``) also counts building the claims (``ingest.close_due``) and sending
-the regions to every peer; the building is timed in the run too, and both are printed by the
-cycles' kind: those that close no transmission (the work bound's waiting claims), one (the
-spoofer's, whose broadcasts are not in step with the fleet's) or more (the fleet's, whose
-broadcasts are).
+``gcs_update_p99_ms``) also counts sending the regions to every peer. The step is printed by
+the cycles' kind: those given no new transmission (the work bound's waiting claims), one
+(the spoofer's, whose broadcasts are not in step with the fleet's) or more (the fleet's,
+whose broadcasts are). Building the claims (``ingest.close_due``) is timed too: the GCS
+closes a transmission at the first step after its window, between the cycles, and the next
+cycle takes it; printed over the steps that closed any.
 """
 
 from __future__ import annotations
@@ -72,7 +73,7 @@ class _Recording:
 
 class _TimedClosing:
     """The GCS ingest's ``close_due``, timed, with how many transmissions each call closed
-    (one call per GCS cycle, just before the pipeline's ``step``)."""
+    (one call per step of the GCS)."""
 
     def __init__(self, close_due: Callable[[float], list[ObservedClaim]]) -> None:
         self.close_due = close_due
@@ -86,22 +87,32 @@ class _TimedClosing:
         self.closed.append(len(claims))
         return claims
 
+    def summary(self) -> str:
+        """Building the claims, over the steps that closed any."""
+        closed = np.asarray(self.closed)
+        picked = closed > 0
+        if not picked.any():
+            return "    building the claims: no step closed any"
+        ms = np.asarray(self.close_s)[picked] * 1e3
+        return (
+            f"    building the claims, between the cycles ({picked.sum()} steps closed "
+            f"{closed[picked].mean():.1f} on average): mean {ms.mean():.3f} ms "
+            f"p99 {np.percentile(ms, 99):.3f} ms"
+        )
 
-def _by_cycle_kind(closing: _TimedClosing, step_s: np.ndarray) -> list[str]:
-    """Per kind of cycle (transmissions it closed): building the claims and the step, in
-    the run."""
-    closed = np.asarray(closing.closed)
-    close_ms, step_ms = np.asarray(closing.close_s) * 1e3, step_s * 1e3
+
+def _by_cycle_kind(new_claims: np.ndarray, step_s: np.ndarray) -> list[str]:
+    """Per kind of cycle (new transmissions it was given): the step, in the run."""
+    step_ms = step_s * 1e3
     lines = []
     for kind, picked in (
-        ("none", closed == 0), ("one", closed == 1), ("two or more", closed >= 2)
+        ("none", new_claims == 0), ("one", new_claims == 1), ("two or more", new_claims >= 2)
     ):  # fmt: skip
         if not picked.any():
             continue
-        c, s = close_ms[picked], step_ms[picked]
+        s = step_ms[picked]
         lines.append(
-            f"    closing {kind} ({picked.sum()} cycles, {closed[picked].mean():.1f} closed): "
-            f"building the claims mean {c.mean():.3f} ms p99 {np.percentile(c, 99):.3f} ms, "
+            f"    given {kind} ({picked.sum()} cycles, {new_claims[picked].mean():.1f} new): "
             f"step mean {s.mean():.3f} ms p99 {np.percentile(s, 99):.3f} ms"
         )
     return lines
@@ -156,8 +167,9 @@ def main() -> None:
     replayed = np.median(np.array(replays), axis=0)
     in_run = np.asarray(recording.step_s)
     print(f"  in the run ({len(in_run)} updates): {_summary(in_run)}")
-    if len(closing.closed) == len(in_run):  # else a cycle's step raised: no pairing
-        print("\n".join(_by_cycle_kind(closing, in_run)))
+    new_claims = np.array([len(claims) for _, claims in recording.cycles])
+    print("\n".join(_by_cycle_kind(new_claims, in_run)))
+    print(closing.summary())
     print(f"  replayed alone (median of {args.repeat}): {_summary(replayed)}")
     ratio_p99 = np.percentile(in_run, 99) / np.percentile(replayed, 99)
     print(
