@@ -61,7 +61,7 @@ from ridsafe.common.shell import (
     not_from_systems,
 )
 from ridsafe.gcs.config import GCS_COMPONENT_ID, GCS_SYSTEM_ID, ClockSource, GcsConfig
-from ridsafe.gcs.ingest import Ingest, RateLimitedLog, check_values
+from ridsafe.gcs.ingest import Ingest, RateLimitedLog, check_values, claim_order
 from ridsafe.gcs.pipeline_api import (
     AlertChange,
     CycleOutput,
@@ -414,14 +414,12 @@ class Gcs:
     def _close_due(self, sim_now: float) -> None:
         """Close the transmissions whose ``group_window_s`` is over, at every step: a claim
         is built as soon as it is complete, between the cycles, and the next cycle takes it."""
-        closed = self.ingest.close_due(sim_now)
-        if closed:
-            self._closed.extend(closed)
+        self._closed.extend(self.ingest.close_due(sim_now))
 
     def _cycle(self, now_s: float) -> None:
         start = time.perf_counter()  # compute time only, never sim time
         closed, self._closed = self._closed, []
-        closed.sort(key=lambda claim: (claim.t_s, claim.uas_id))  # as one close_due sorts
+        closed.sort(key=claim_order)  # several steps' closings, in one order
         output, error = self._step_pipeline(now_s, closed)
         pipeline_ms = (time.perf_counter() - start) * 1e3
         messages: list[m.Message] = self._alert_messages(now_s, output)

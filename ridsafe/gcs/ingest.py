@@ -178,6 +178,11 @@ _NO_VELOCITY = (math.nan, math.nan, math.nan)  # a row of ``claims_of``'s veloci
 _FIRST_ROWS = 16
 
 
+def claim_order(claim: ObservedClaim) -> tuple[float, str]:
+    """The order claims go to the pipeline in: first reception time, then transmitter id."""
+    return claim.t_s, claim.uas_id
+
+
 def claims_of(groups: Sequence[_Group]) -> list[ObservedClaim]:
     """The observed claims of ``groups``, receptions sorted by receiver id: every group's
     rows stacked, sorted by (group, receiver) and cut into read-only columns, then sliced
@@ -333,7 +338,7 @@ class Ingest:
         window = self.config.group_window_s
         due = [k for k, g in self._open.items() if now_s - g.opened_s >= window - _TIME_EPS_S]
         closed = claims_of([self._open.pop(k) for k in due])
-        closed.sort(key=lambda t: (t.t_s, t.uas_id))
+        closed.sort(key=claim_order)
         for key in due:
             self._closed[key] = now_s
         for claim in closed:
