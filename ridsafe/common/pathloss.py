@@ -48,6 +48,7 @@ Beyond free space (the simulated radio's options, ``sim_backend/radio.py``):
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -88,6 +89,18 @@ DB_PER_LN = 20.0 / math.log(10.0)
 
 def loss_at_1m_db(frequency_mhz: ArrayLike = RID_FREQUENCY_MHZ) -> FloatArray:
     """L1(f) = 20 log10(f_MHz) + 32.44 - 60 dB, the paper's loss over the first metre."""
+    value: object = frequency_mhz  # (numpy's ArrayLike spells float as complex)
+    if isinstance(value, float):  # a radio's one frequency: every reception of a run
+        return _loss_at_1m_of(value)
+    return _loss_at_1m(frequency_mhz)
+
+
+@functools.lru_cache(maxsize=16)
+def _loss_at_1m_of(frequency_mhz: float) -> FloatArray:
+    return _loss_at_1m(frequency_mhz)
+
+
+def _loss_at_1m(frequency_mhz: ArrayLike) -> FloatArray:
     f = np.asarray(frequency_mhz, dtype=np.float64)
     if np.any(f <= 0.0):
         raise ValueError(f"frequency_mhz must be > 0, got {frequency_mhz!r}")

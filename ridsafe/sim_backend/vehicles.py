@@ -128,6 +128,7 @@ class OctorotorFleet:
         self._mode = np.full(n, int(TargetMode.POSITION | TargetMode.YAW), dtype=np.int64)
         self._armed = np.zeros(n, dtype=np.bool_)
         self._periods = 0
+        self._on_ground: NDArray[np.bool_] | None = None  # of the state now; None: changed
         self._kc = ControllerConsts.from_params(self.controller)
         self._ko = OctorotorConsts.from_params(self.octorotor)
         self._thrust_levels = thrust_levels_n(self.octorotor)
@@ -137,7 +138,7 @@ class OctorotorFleet:
     @staticmethod
     def _checked(value: ArrayLike, shape: tuple[int, ...], name: str) -> FloatArray:
         arr = np.asarray(value, dtype=np.float64)
-        if arr.shape != shape or not np.all(np.isfinite(arr)):
+        if arr.shape != shape or not all(map(math.isfinite, arr.ravel().tolist())):
             raise ValueError(f"{name} must be finite with shape {shape}, got {arr.shape}")
         return arr
 
@@ -171,12 +172,14 @@ class OctorotorFleet:
     def on_ground(self) -> NDArray[np.bool_]:
         """``(N,)``: on the ground, as a land detector sees it: within ``ON_GROUND_HEIGHT_M``
         of it and slower than ``ON_GROUND_SPEED_M_S`` (thresholds, as ArduCopter's detector
-        has: quantised thrust around m g lifts a waiting vehicle by micrometres now and then)."""
-        speed = np.linalg.norm(self._state[:, VEL_ENU], axis=1)
-        on_ground: NDArray[np.bool_] = (self._state[:, IDX_Z] <= ON_GROUND_HEIGHT_M) & (
-            speed <= ON_GROUND_SPEED_M_S
-        )
-        return on_ground
+        has: quantised thrust around m g lifts a waiting vehicle by micrometres now and then).
+        Computed once per state: the sim reads it several times a tick."""
+        if self._on_ground is None:
+            speed = np.linalg.norm(self._state[:, VEL_ENU], axis=1)
+            self._on_ground = (self._state[:, IDX_Z] <= ON_GROUND_HEIGHT_M) & (
+                speed <= ON_GROUND_SPEED_M_S
+            )
+        return self._on_ground.copy()
 
     @property
     def last_command(self) -> tuple[FloatArray, FloatArray]:
@@ -201,6 +204,7 @@ class OctorotorFleet:
         s = self._checked(state, (STATE_SIZE,), "state").copy()
         s[IDX_PSI] = wrap_angle_rad(s[IDX_PSI])
         self._state[vehicle] = s
+        self._on_ground = None
         self._memory[vehicle] = 0.0
         self._sd_error[vehicle] = 0.0
 
@@ -242,6 +246,7 @@ class OctorotorFleet:
             return
         self._advance_periods(int(n_controller_steps))
         self._periods += int(n_controller_steps)
+        self._on_ground = None
 
     def _advance_periods(self, n_periods: int) -> None:
         """The compiled step over every vehicle. Called with 0 periods when the fleet is built:
