@@ -58,6 +58,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ridsafe.common.errors import FieldValueError
+from ridsafe.common.jit import jit
 
 __all__ = [
     "COURSE_MIN_SPEED_MPS",
@@ -143,30 +144,44 @@ def ecef_to_geodetic(p_ecef_m: ArrayLike) -> tuple[FloatArray, FloatArray, Float
     """ECEF metres (..., 3) -> (lat_deg, lon_deg, alt_m), each of shape (...).
 
     Heikkinen's closed form; longitude in (-180, 180]. Valid away from the Earth's centre
-    (anywhere an aircraft can be).
+    (anywhere an aircraft can be). Compiled (:func:`_ecef_to_geodetic_kernel`): the sim
+    converts its whole fleet at every position report, where two dozen numpy calls on a
+    few elements each cost ten times the arithmetic.
     """
     p = np.asarray(p_ecef_m, dtype=np.float64)
-    x, y, z = p[..., 0], p[..., 1], p[..., 2]
+    flat = np.ascontiguousarray(p.reshape(-1, 3))
+    out = np.empty((3, flat.shape[0]))
+    _ecef_to_geodetic_kernel(flat, out)
+    shape = p.shape[:-1]  # [()]: a point's values as numpy scalars, as the ufuncs gave
+    return out[0].reshape(shape)[()], out[1].reshape(shape)[()], out[2].reshape(shape)[()]
+
+
+@jit
+def _ecef_to_geodetic_kernel(p: FloatArray, out: FloatArray) -> None:
+    """Rows of ``p`` (n, 3) ECEF -> ``out`` (3, n): lat deg, lon deg, alt m."""
     a, b, e2 = WGS84_A_M, _WGS84_B_M, WGS84_E2
-    r_xy = np.hypot(x, y)
-    f_term = 54.0 * b**2 * z**2
-    g = r_xy**2 + (1.0 - e2) * z**2 - e2 * (a**2 - b**2)
-    c = e2**2 * f_term * r_xy**2 / g**3
-    s = np.cbrt(1.0 + c + np.sqrt(c**2 + 2.0 * c))
-    k = s + 1.0 + 1.0 / s
-    pp = f_term / (3.0 * k**2 * g**2)
-    q = np.sqrt(1.0 + 2.0 * e2**2 * pp)
-    r0_sq = (
-        0.5 * a**2 * (1.0 + 1.0 / q) - pp * (1.0 - e2) * z**2 / (q * (1.0 + q)) - 0.5 * pp * r_xy**2
-    )
-    r0 = -pp * e2 * r_xy / (1.0 + q) + np.sqrt(np.maximum(r0_sq, 0.0))
-    u = np.hypot(r_xy - e2 * r0, z)
-    v = np.sqrt((r_xy - e2 * r0) ** 2 + (1.0 - e2) * z**2)
-    z0 = b**2 * z / (a * v)
-    alt = u * (1.0 - b**2 / (a * v))
-    lat = np.degrees(np.arctan2(z + _WGS84_EP2 * z0, r_xy))
-    lon = np.degrees(np.arctan2(y, x))
-    return lat, lon, alt
+    for i in range(p.shape[0]):
+        x, y, z = p[i, 0], p[i, 1], p[i, 2]
+        r_xy = math.hypot(x, y)
+        f_term = 54.0 * b**2 * z**2
+        g = r_xy**2 + (1.0 - e2) * z**2 - e2 * (a**2 - b**2)
+        c = e2**2 * f_term * r_xy**2 / g**3
+        s = np.cbrt(1.0 + c + math.sqrt(c**2 + 2.0 * c))
+        k = s + 1.0 + 1.0 / s
+        pp = f_term / (3.0 * k**2 * g**2)
+        q = math.sqrt(1.0 + 2.0 * e2**2 * pp)
+        r0_sq = (
+            0.5 * a**2 * (1.0 + 1.0 / q)
+            - pp * (1.0 - e2) * z**2 / (q * (1.0 + q))
+            - 0.5 * pp * r_xy**2
+        )
+        r0 = -pp * e2 * r_xy / (1.0 + q) + math.sqrt(max(r0_sq, 0.0))
+        u = math.hypot(r_xy - e2 * r0, z)
+        v = math.sqrt((r_xy - e2 * r0) ** 2 + (1.0 - e2) * z**2)
+        z0 = b**2 * z / (a * v)
+        out[2, i] = u * (1.0 - b**2 / (a * v))
+        out[0, i] = math.degrees(math.atan2(z + _WGS84_EP2 * z0, r_xy))
+        out[1, i] = math.degrees(math.atan2(y, x))
 
 
 # --------------------------------------------------------------------------------------------
