@@ -69,6 +69,8 @@ class Transponder:
         self._last_from_companion_s: dict[str, float] = {}
         self._system: m.OdidSystem | None = None
         self._static_frames: dict[str, bytes] = {}
+        # per static message type: the last message encoded, its name and frame
+        self._last_static: dict[type, tuple[m.Message, str, bytes]] = {}
         self._next_static_s = static_phase_s
 
     def heartbeat(self) -> m.Heartbeat:
@@ -84,6 +86,26 @@ class Transponder:
             message = updated
         if not isinstance(message, _BROADCAST_TYPES):
             return None
+        encoded = self._encoded(message)
+        if encoded is None:
+            return None
+        name, frame = encoded
+        self._last_from_companion_s[name] = now_s
+        if isinstance(message, m.OdidSystem):
+            self._system = message
+        if isinstance(message, STATIC_TYPES):
+            self._static_frames[name] = frame
+            return None
+        self.counters.sent += 1
+        return frame
+
+    def _encoded(self, message: m.Message) -> tuple[str, bytes] | None:
+        """(MAVLink message name, F3411 frame) of ``message``, or None if it cannot go on
+        the air (logged and counted). A static message the companion repeats unchanged
+        (BASIC_ID, OPERATOR_ID: the same every few seconds) is not encoded again."""
+        last = self._last_static.get(type(message))
+        if last is not None and last[0] == message:
+            return last[1], last[2]
         try:
             name, fields = codec.odid_fields(message)
             frame = f3411.encode(name, fields)
@@ -93,14 +115,9 @@ class Transponder:
                 "transponder %d: not broadcasting %s: %s", self.sysid, type(message).__name__, exc
             )
             return None
-        self._last_from_companion_s[name] = now_s
-        if isinstance(message, m.OdidSystem):
-            self._system = message
         if isinstance(message, STATIC_TYPES):
-            self._static_frames[name] = frame
-            return None
-        self.counters.sent += 1
-        return frame
+            self._last_static[type(message)] = (message, name, frame)
+        return name, frame
 
     @property
     def static_frames(self) -> dict[str, bytes]:

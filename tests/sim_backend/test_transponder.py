@@ -371,6 +371,17 @@ def test_static_messages_go_on_the_air_as_one_pack_or_a_frame_each() -> None:
     assert frames[True] == [_pack(*frames[False])]
 
 
+def test_a_static_message_sent_again_unchanged_or_changed_goes_on_the_air_as_it_is_now() -> None:
+    """The transponder keeps the last encoding of each static message type: a repeat must
+    give the same frame, a change (even back and forth) the frame of the message now."""
+    tx = Transponder(1, SENDER_ID, static_as_pack=False)
+    first, second = rid.operator_id("OP-1"), rid.operator_id("OP-2")
+    for message in (first, first, second, first):
+        tx.on_message(0.0, message)
+        assert tx.static_frames == {"OPEN_DRONE_ID_OPERATOR_ID": _frame(message)}
+    assert tx.counters.encode_rejected == 0
+
+
 def test_a_message_pack_from_the_companion_goes_on_the_air_as_a_pack() -> None:
     body = _frame(rid.basic_id(SERIAL)) + _frame(rid.operator_id("OP-1"))
     raw = m.OdidRaw(
