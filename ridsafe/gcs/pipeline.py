@@ -12,11 +12,14 @@ since the last cycle, and answers what it decided. Each cycle:
 
 0. at most ``max_claims_per_cycle`` claims run, or more when the waiting ones could not
    otherwise all run within ``max_claim_wait_s`` of arriving at that many per cycle (the
-   least even rate that meets every claim's wait: a second's aligned broadcasts of 64
-   aircraft run as 17, 17, 17, 14); the claims of suspects (alerted, new, or scoring above
-   ``SUSPICION`` of a threshold) and those that waited ``max_claim_wait_s`` always run; the
-   rest wait for the next cycles, oldest first; a claim that updates a track counts as
-   ``track_claim_cost`` claims, so a cycle with a track update takes fewer waiting ones;
+   least even rate that meets every claim's wait); the claims of suspects (alerted, new, or
+   scoring above ``SUSPICION`` of a threshold) and those that waited ``max_claim_wait_s``
+   always run; the rest wait for the next cycles, oldest first; a claim that updates a track
+   counts as ``track_claim_cost`` claims, so a cycle with a track update takes fewer waiting
+   ones, and the even rate is over the cycles no track update is expected in (a tracked
+   transmitter's next claim one period after its last): a second's aligned broadcasts of 64
+   aircraft, with the spoofer's claim in a cycle of its own, run as 22, 21, the track, 21
+   (without the expectation: 17, 17, the track, and the 30 left at the wait limit);
 1. every claim (in time order) goes through its claimed transmitter's detectors
    (a ``TransmitterMonitor`` per uas_id heard, benign ones too; all of a cycle's claims in
    one batch, ``detection.monitor.observe_batch``) -> ``DetectorResult``s;
@@ -191,6 +194,8 @@ class EstimationPipeline:
             GroundWatch(ghosts, ground_z_m) if ghosts.enabled and ground_z_m is not None else None
         )
         self._waiting: list[tuple[float, ObservedClaim]] = []  # (arrived s, claim)
+        # per tracked uas_id: the cycles its last two claims arrived in (s; None: one so far)
+        self._track_arrivals: dict[str, tuple[float | None, float]] = {}
         self._last_step_s: float | None = None
         self.compute_s: deque[float] = deque(maxlen=COMPUTE_HISTORY)
 
@@ -245,6 +250,7 @@ class EstimationPipeline:
         the rest wait (oldest first, so one transmitter's claims keep their order)."""
         cycle_s = None if self._last_step_s is None else now_s - self._last_step_s
         self._last_step_s = now_s
+        self._note_track_arrivals(now_s, claims)
         waiting = sorted([*self._waiting, *((now_s, c) for c in claims)], key=_claim_time)
         limit = self.config.max_claims_per_cycle
         if limit <= 0 or len(waiting) <= limit:
@@ -258,7 +264,8 @@ class EstimationPipeline:
             urgent = arrived_s <= due_s + _EPS_S or self._suspect(claim.uas_id)
             (must if urgent else may).append(item)
         extra = sum(self._track_extra(claim) for _, claim in must)
-        room = max(0, self._budget(now_s, cycle_s, len(must), may) - len(must) - extra)
+        budget = self._budget(now_s, cycle_s, len(must), may, track_now=extra > 0)
+        room = max(0, budget - len(must) - extra)
         self._waiting = may[room:]
         return [claim for _, claim in sorted([*must, *may[:room]], key=_claim_time)]
 
@@ -268,20 +275,49 @@ class EstimationPipeline:
         cycle_s: float | None,
         n_must: int,
         may: Sequence[tuple[float, ObservedClaim]],
+        track_now: bool = False,
     ) -> int:
         """Claims to run this cycle: ``max_claims_per_cycle``, or the least constant number
         per cycle that runs every waiting claim within ``max_claim_wait_s`` of its arrival
-        (cycles of ``cycle_s``, the time since the last step) if that is more."""
+        (cycles of ``cycle_s``, the time since the last step) if that is more. A cycle that
+        updates a track has no room for waiting claims (``track_claim_cost``): this one if
+        ``track_now``, and each later one a track's next claim is expected in
+        (``_expected_track_cycles``), so those are not counted as cycles to spread over."""
         limit = self.config.max_claims_per_cycle
         if cycle_s is None or cycle_s <= 0.0:
             return limit
         wait_s = self.config.max_claim_wait_s
+        weighed = self.config.track_claim_cost > 1  # else a track's cycle has room as any
+        expected = self._expected_track_cycles(now_s, cycle_s) if weighed else []
         need, queued = 0, n_must
         for arrived_s in sorted(arrived for arrived, _ in may):
             queued += 1
-            cycles = 1 + math.floor((arrived_s + wait_s - now_s) / cycle_s + 1e-6)
-            need = max(need, math.ceil(queued / max(cycles, 1)))
+            deadline_s = arrived_s + wait_s
+            cycles = 1 + math.floor((deadline_s - now_s) / cycle_s + 1e-6)
+            taken = int(track_now) + sum(1 for t in expected if t <= deadline_s + _EPS_S)
+            need = max(need, math.ceil(queued / max(cycles - taken, 1)))
         return max(limit, need)
+
+    def _note_track_arrivals(self, now_s: float, claims: Sequence[ObservedClaim]) -> None:
+        """Remember the cycle each tracked transmitter's claims arrive in (once a cycle)."""
+        for uas_id in {c.uas_id for c in claims if c.uas_id in self._tracks}:
+            previous = self._track_arrivals.get(uas_id)
+            if previous is None or previous[1] < now_s - _EPS_S:
+                self._track_arrivals[uas_id] = (None if previous is None else previous[1], now_s)
+
+    def _expected_track_cycles(self, now_s: float, cycle_s: float) -> list[float]:
+        """The later cycles (s, on this cycle's grid) a live track's next claim is expected
+        in: a transmitter broadcasts periodically, so one period (its last two claims'
+        spacing) after its last; distinct cycles only."""
+        cycles: set[float] = set()
+        for before_s, last_s in self._track_arrivals.values():
+            if before_s is None:
+                continue
+            next_s = last_s + (last_s - before_s)
+            steps = math.ceil((next_s - now_s) / cycle_s - 1e-6)
+            if steps >= 1:
+                cycles.add(round(now_s + steps * cycle_s, 6))
+        return sorted(cycles)
 
     def _track_extra(self, claim: ObservedClaim) -> int:
         """What a claim costs beyond one claim's detection: its track's update, if any."""
@@ -400,6 +436,7 @@ class EstimationPipeline:
             cleared.append(AlertChange(uas_id, alert.detector, 0.0, 0.0, AlertState.CLEARED))
             if self._tracks.pop(uas_id, None) is not None:
                 deleted.append(uas_id)
+                self._track_arrivals.pop(uas_id, None)
                 self._publisher.forget(uas_id)
                 if self._ground is not None:
                     self._ground.forget(uas_id)

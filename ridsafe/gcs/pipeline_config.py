@@ -587,9 +587,10 @@ class PipelineConfig:
     #: ``max_claim_wait_s`` if that is more; the rest wait for the next cycles, oldest
     #: first; suspects' claims (alerted, new, or near an alerting threshold:
     #: ``pipeline.SUSPICION``) never wait, none longer than ``max_claim_wait_s``. Aircraft
-    #: broadcasting in phase bring all their claims to one cycle in four: 65 claims (64
-    #: aircraft) then run as 17, 17, 17, 14, a second's claims over a second's cycles. Up to
-    #: 16 aircraft and a spoofer (the paper's fleets) nothing waits.
+    #: broadcasting in phase bring all their claims to one cycle in four: 64 aircraft's claims
+    #: then run as 22, 21, 21 around the tracked spoofer's cycle (``pipeline.py``, step 0), a
+    #: second's claims over a second's cycles. Up to 16 aircraft and a spoofer (the paper's
+    #: fleets) nothing waits.
     max_claims_per_cycle: int = 17
     max_claim_wait_s: float = 0.75
     #: In that bound, a claim that updates a track counts as this many: the track's

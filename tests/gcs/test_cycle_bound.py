@@ -11,6 +11,7 @@ import pytest
 
 from ridsafe.common.errors import FieldValueError
 from ridsafe.gcs.pipeline import EstimationPipeline
+from ridsafe.gcs.pipeline_api import ObservedClaim
 from ridsafe.gcs.pipeline_config import ForcedAlertConfig, PipelineConfig
 from ridsafe.gcs.synthetic.traffic import CYCLE_S, SPOOFER_ID, Scene, make_traffic
 
@@ -78,6 +79,32 @@ def test_a_cycle_that_updates_a_track_takes_fewer_waiting_claims() -> None:
     assert max(others) <= 5  # the 11 benign claims over the next three cycles
     flat = {cost: sorted(u for run in r[: tracked[-1]] for u in run) for cost, r in runs.items()}
     assert flat[1] == flat[30]  # the same claims ran by then
+
+
+def test_the_waiting_claims_spread_over_the_cycles_a_track_update_leaves_free() -> None:
+    """The spoofer (alerted at 0 s, tracked) broadcasts half a second after 11 aircraft that
+    are in phase, against a bound of 3: its cycle has no room for waiting claims, so the
+    fleet's 11 are spread over the other three of their 0.75 s wait (4, 4, 3), its next claim
+    expected one period after its last; not 3, 3 and then the 5 left at the wait limit."""
+    forced = ForcedAlertConfig(enabled=True, uas_id=SPOOFER_ID, time_s=0.0)
+    traffic = make_traffic(SCENE)
+    shifted: dict[float, list[ObservedClaim]] = {}
+    for cycle, claims in traffic.cycles.items():
+        for claim in claims:
+            later = 2 * CYCLE_S if claim.uas_id == SPOOFER_ID else 0.0
+            shifted.setdefault(round(cycle + later, 6), []).append(claim)
+    pipeline = EstimationPipeline(PipelineConfig(max_claims_per_cycle=3, forced_alert=forced))
+    runs = []
+    for k in range(1, round(SCENE.duration_s / CYCLE_S) + 1):
+        now = round(k * CYCLE_S, 6)
+        out = pipeline.step(now, shifted.get(now, []))
+        runs.append([r.uas_id for r in out.detector_results][::N_DETECTORS])
+    tracked = [k for k, run in enumerate(runs) if SPOOFER_ID in run][3:]  # once predictable
+    assert tracked and all(runs[k] == [SPOOFER_ID] for k in tracked)
+    fleet = [len(run) for k, run in enumerate(runs) if tracked[0] < k < tracked[-1]]
+    assert max(fleet) == 4  # ceil(11 / 3): the three cycles the track update leaves
+    delivered = sum(len(claims) for cycle, claims in shifted.items() if cycle <= SCENE.duration_s)
+    assert sum(map(len, runs)) + len(pipeline.waiting) == delivered  # every claim, once
 
 
 def test_under_the_bound_nothing_changes() -> None:
