@@ -280,22 +280,29 @@ class EstimationPipeline:
         """Claims to run this cycle: ``max_claims_per_cycle``, or the least constant number
         per cycle that runs every waiting claim within ``max_claim_wait_s`` of its arrival
         (cycles of ``cycle_s``, the time since the last step) if that is more. A cycle that
-        updates a track has no room for waiting claims (``track_claim_cost``): this one if
+        updates a track spends ``track_claim_cost`` of its budget on it: this one if
         ``track_now``, and each later one a track's next claim is expected in
-        (``_expected_track_cycles``), so those are not counted as cycles to spread over."""
+        (``_expected_track_cycles``). The budget is the least that runs the waiting claims
+        in time with those cycles taking ``budget - track_claim_cost`` each (none while the
+        others can take all), so one track's cycle leaves them to the other cycles and with a
+        track in every cycle they spread over all of them alike."""
         limit = self.config.max_claims_per_cycle
         if cycle_s is None or cycle_s <= 0.0:
             return limit
         wait_s = self.config.max_claim_wait_s
-        weighed = self.config.track_claim_cost > 1  # else a track's cycle has room as any
-        expected = self._expected_track_cycles(now_s, cycle_s) if weighed else []
+        cost = self.config.track_claim_cost
+        expected = self._expected_track_cycles(now_s, cycle_s) if cost > 1 else []
         need, queued = 0, n_must
         for arrived_s in sorted(arrived for arrived, _ in may):
             queued += 1
             deadline_s = arrived_s + wait_s
-            cycles = 1 + math.floor((deadline_s - now_s) / cycle_s + 1e-6)
-            taken = int(track_now) + sum(1 for t in expected if t <= deadline_s + _EPS_S)
-            need = max(need, math.ceil(queued / max(cycles - taken, 1)))
+            cycles = max(1, 1 + math.floor((deadline_s - now_s) / cycle_s + 1e-6))
+            taken = min(cycles, int(track_now) + sum(t <= deadline_s + _EPS_S for t in expected))
+            free = cycles - taken
+            if free > 0 and math.ceil(queued / free) <= cost:
+                need = max(need, math.ceil(queued / free))
+            else:  # every cycle busy: each runs the same work, a track's counted as its cost
+                need = max(need, math.ceil((queued + taken * cost) / cycles))
         return max(limit, need)
 
     def _note_track_arrivals(self, now_s: float, claims: Sequence[ObservedClaim]) -> None:
