@@ -14,8 +14,12 @@ ellipsoidal altitude.
 from __future__ import annotations
 
 import enum
+import math
 from dataclasses import dataclass
 from typing import TypeAlias
+
+import numpy as np
+from numpy.typing import NDArray
 
 from ridsafe.common.frozen import quick_init
 from ridsafe.common.protocol_messages import ProtocolMessage
@@ -470,6 +474,51 @@ class Observation:
     uas_id: str
 
 
+#: ``Observation``'s float fields in order: the columns of ``ObservationRows.values``.
+OBSERVATION_COLUMNS = (
+    "t_s",
+    "rx_lat_deg",
+    "rx_lon_deg",
+    "rx_alt_m",
+    "claimed_lat_deg",
+    "claimed_lon_deg",
+    "claimed_alt_m",
+    "rid_timestamp_s",
+    "rssi_dbm",
+    "claimed_course_deg",
+    "claimed_speed_horizontal_m_s",
+    "claimed_speed_vertical_m_s",
+)
+#: The first of ``OBSERVATION_COLUMNS`` that may be None (NaN in ``ObservationRows``): the
+#: last three.
+FIRST_OPTIONAL_COLUMN = 9
+
+
+@dataclass(frozen=True, eq=False)
+class ObservationRows:
+    """Consecutive RIDSAFE_OBSERVATION messages of one sender, decoded together (by a link
+    with columnar decoding, as the GCS's are): row i of ``values`` holds the i-th
+    ``Observation``'s float fields in ``OBSERVATION_COLUMNS`` order, NaN where it has None,
+    and ``uas_id[i]`` its id. Received only, never sent: on the wire each row is a message."""
+
+    values: NDArray[np.float64]  # (n, len(OBSERVATION_COLUMNS)), read-only
+    uas_id: tuple[str, ...]
+
+    def __len__(self) -> int:
+        return len(self.uas_id)
+
+    def observation(self, i: int) -> Observation:
+        """Row ``i`` as the ``Observation`` it was sent as."""
+        t_s, rx_lat, rx_lon, rx_alt, c_lat, c_lon, c_alt, rid_t, rssi, *optional = self.values[
+            i
+        ].tolist()
+        course, speed_h, speed_v = (None if math.isnan(v) else v for v in optional)
+        return Observation(
+            t_s, rx_lat, rx_lon, rx_alt, c_lat, c_lon, c_alt, rid_t, rssi,
+            course, speed_h, speed_v, self.uas_id[i],
+        )  # fmt: skip
+
+
 @quick_init
 @dataclass(frozen=True, slots=True)
 class UnsafeRegionMsg:
@@ -537,6 +586,7 @@ Message: TypeAlias = (
     | OdidRaw
     | RidFrameReport
     | Observation
+    | ObservationRows
     | UnsafeRegionMsg
     | SpoofAlert
     | LockstepTick

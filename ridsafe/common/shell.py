@@ -260,8 +260,9 @@ class AppShell:
 
     def _refuse(self, endpoint: Endpoint, received: Received, reason: str) -> None:
         sender = f"{received.src_system}/{received.src_component}"
-        what = f"{type(received.message).__name__} from {sender} on {endpoint.name}"
-        self._count_refused(reason, what)
+        message = received.message
+        what = f"{type(message).__name__} from {sender} on {endpoint.name}"
+        self._count_refused(reason, what, len(message) if type(message) is m.ObservationRows else 1)
 
     def count_foreign(self, name: str, reason: str, count: int = 1) -> None:
         """Count ``count`` datagrams the runner dropped before the core (``common.runner``:

@@ -61,7 +61,7 @@ from ridsafe.common.shell import (
     not_from_systems,
 )
 from ridsafe.gcs.config import GCS_COMPONENT_ID, GCS_SYSTEM_ID, ClockSource, GcsConfig
-from ridsafe.gcs.ingest import Ingest, RateLimitedLog, check_values, claim_order
+from ridsafe.gcs.ingest import Ingest, RateLimitedLog, RejectReason, check_values, claim_order
 from ridsafe.gcs.pipeline_api import (
     AlertChange,
     CycleOutput,
@@ -320,7 +320,9 @@ class Gcs:
             return None
         if len(self._peers) >= self.config.max_peers and not self._evict_dead_peer():
             return "peer_limit"
-        link = MavlinkLink(GCS_SYSTEM_ID, GCS_COMPONENT_ID, self.signing, self.replay)
+        link = MavlinkLink(
+            GCS_SYSTEM_ID, GCS_COMPONENT_ID, self.signing, self.replay, columnar=True
+        )
         endpoint = Endpoint(name, link, accept=not_from_systems((0, GCS_SYSTEM_ID)))
         self._peers[name] = _Peer(key, endpoint)
         return endpoint
@@ -343,7 +345,9 @@ class Gcs:
         sysid = received.src_system  # not 0 nor ours: the endpoint's sender check
         self._heard(now_s, peer, sysid)
         message = received.message
-        if isinstance(message, m.Observation):
+        if type(message) is m.ObservationRows:
+            self._observe_rows(now_s, sysid, message)
+        elif isinstance(message, m.Observation):
             self._observe(now_s, sysid, message)
         elif not isinstance(message, m.Heartbeat):
             self.counters.ignored_messages += 1
@@ -380,11 +384,26 @@ class Gcs:
         sim_now = self._time.sim_s(now_s)
         reason = self.ingest.add(obs.t_s if sim_now is None else sim_now, rx_sysid, obs)
         if reason is not None:
-            self._warn.warn(
-                now_s,
-                f"reject/{reason.value}",
-                f"report from system {rx_sysid} about {obs.uas_id!r} rejected: {reason.value}",
-            )
+            self._warn_rejected(now_s, rx_sysid, obs.uas_id, reason)
+
+    def _observe_rows(self, now_s: float, rx_sysid: int, rows: m.ObservationRows) -> None:
+        """``_observe`` of every row, in order; with the clock locked, the rows at once."""
+        sim_now = self._time.sim_s(now_s)
+        if sim_now is None:  # the first valid report locks the clock
+            for i in range(len(rows)):
+                self._observe(now_s, rx_sysid, rows.observation(i))
+            return
+        for uas_id, reason in self.ingest.add_rows(sim_now, rx_sysid, rows):
+            self._warn_rejected(now_s, rx_sysid, uas_id, reason)
+
+    def _warn_rejected(
+        self, now_s: float, rx_sysid: int, uas_id: str, reason: RejectReason
+    ) -> None:
+        self._warn.warn(
+            now_s,
+            f"reject/{reason.value}",
+            f"report from system {rx_sysid} about {uas_id!r} rejected: {reason.value}",
+        )
 
     def _expire_peers(self, now_s: float) -> None:
         for peer in self._peers.values():

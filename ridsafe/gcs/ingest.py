@@ -38,11 +38,13 @@ from dataclasses import dataclass, field
 from typing import TypeVar
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ridsafe.common import frames
 from ridsafe.common.frames import GeodeticOrigin
 from ridsafe.common.frozen import quick_init
-from ridsafe.common.messages import Observation, Vec3
+from ridsafe.common.jit import jit
+from ridsafe.common.messages import FIRST_OPTIONAL_COLUMN, Observation, ObservationRows, Vec3
 from ridsafe.gcs.config import GcsConfig
 from ridsafe.gcs.pipeline_api import FloatArray, ObservedClaim, readonly
 
@@ -133,13 +135,77 @@ def check_time(t_s: float, now_s: float, config: GcsConfig) -> RejectReason | No
 
 def claimed_velocity_enu(obs: Observation) -> Vec3 | None:
     """ENU velocity the broadcast claims (see the module docstring), or None."""
-    speed_h, speed_v = obs.claimed_speed_horizontal_m_s, obs.claimed_speed_vertical_m_s
+    return _claimed_velocity(
+        obs.claimed_course_deg, obs.claimed_speed_horizontal_m_s, obs.claimed_speed_vertical_m_s
+    )
+
+
+def _claimed_velocity(
+    course_deg: float | None, speed_h: float | None, speed_v: float | None
+) -> Vec3 | None:
     if speed_h is None or speed_v is None:
         return None
-    if obs.claimed_course_deg is None:
+    if course_deg is None:
         return (0.0, 0.0, speed_v) if speed_h < HOVER_SPEED_M_S else None
-    course = math.radians(obs.claimed_course_deg)
+    course = math.radians(course_deg)
     return (speed_h * math.sin(course), speed_h * math.cos(course), speed_v)
+
+
+def _none_if_nan(value: float) -> float | None:
+    return None if math.isnan(value) else value
+
+
+def plain_rows(rows: ObservationRows, now_s: float, config: GcsConfig) -> list[bool]:
+    """Per row of ``rows``: True where ``check_values`` and ``check_time`` (at GCS sim time
+    ``now_s``) find nothing, the values checked in one compiled pass."""
+    plain = np.empty(len(rows), dtype=np.bool_)
+    _plain_values(
+        rows.values,
+        now_s - config.history_window_s,
+        now_s + config.future_tolerance_s,
+        config.rssi_min_dbm,
+        config.rssi_max_dbm,
+        config.alt_min_m,
+        config.alt_max_m,
+        plain,
+    )
+    named = {uas_id for uas_id in set(rows.uas_id) if uas_id.strip("\x00 ")}
+    flags: list[bool] = plain.tolist()
+    if len(named) < len(set(rows.uas_id)):
+        flags = [flag and uas_id in named for flag, uas_id in zip(flags, rows.uas_id, strict=True)]
+    return flags
+
+
+@jit
+def _plain_values(
+    values: NDArray[np.float64],
+    oldest_t_s: float,
+    newest_t_s: float,
+    rssi_min_dbm: float,
+    rssi_max_dbm: float,
+    alt_min_m: float,
+    alt_max_m: float,
+    out: NDArray[np.bool_],
+) -> None:
+    """``check_values`` (all but the id) and ``check_time`` of each row, into ``out``."""
+    for r in range(values.shape[0]):
+        finite = True
+        for c in range(values.shape[1]):
+            v = values[r, c]
+            if np.isinf(v) or (c < FIRST_OPTIONAL_COLUMN and np.isnan(v)):
+                finite = False
+        t_s, rx_alt, c_alt, rssi = values[r, 0], values[r, 3], values[r, 6], values[r, 8]
+        out[r] = (
+            finite
+            and abs(values[r, 1]) <= 90.0
+            and abs(values[r, 2]) <= 180.0
+            and abs(values[r, 4]) <= 90.0
+            and abs(values[r, 5]) <= 180.0
+            and rssi_min_dbm <= rssi <= rssi_max_dbm
+            and alt_min_m <= rx_alt <= alt_max_m
+            and alt_min_m <= c_alt <= alt_max_m
+            and oldest_t_s <= t_s <= newest_t_s
+        )
 
 
 # --- grouping --------------------------------------------------------------------------------
@@ -286,25 +352,79 @@ class Ingest:
         return tuple(self._history.get(uas_id, ()))
 
     def add(self, now_s: float, rx_sysid: int, obs: Observation) -> RejectReason | None:
-        reason = self._admit(now_s, rx_sysid, obs)
+        reason = check_values(obs, self.config) or check_time(obs.t_s, now_s, self.config)
+        if reason is None:
+            reason = self._group(
+                now_s,
+                rx_sysid,
+                obs.uas_id,
+                obs.t_s,
+                (obs.rx_lat_deg, obs.rx_lon_deg, obs.rx_alt_m),
+                (obs.claimed_lat_deg, obs.claimed_lon_deg, obs.claimed_alt_m),
+                obs.rid_timestamp_s,
+                obs.rssi_dbm,
+                obs,
+            )
+        return self._count(reason)
+
+    def add_rows(
+        self, now_s: float, rx_sysid: int, rows: ObservationRows
+    ) -> list[tuple[str, RejectReason]]:
+        """``add`` of each row of ``rows`` (one receiver's reports), in order, the value and
+        time checks made for all rows at once; returns (claimed id, why) of the rows not
+        kept."""
+        plain = plain_rows(rows, now_s, self.config)
+        rejected = []
+        for i, (row, uas_id) in enumerate(zip(rows.values.tolist(), rows.uas_id, strict=True)):
+            if plain[i]:
+                t_s, rx_lat, rx_lon, rx_alt, c_lat, c_lon, c_alt, rid_ts, rssi = row[:9]
+                reason = self._count(
+                    self._group(
+                        now_s,
+                        rx_sysid,
+                        uas_id,
+                        t_s,
+                        (rx_lat, rx_lon, rx_alt),
+                        (c_lat, c_lon, c_alt),
+                        rid_ts,
+                        rssi,
+                        row,
+                    )
+                )
+            else:
+                reason = self.add(now_s, rx_sysid, rows.observation(i))
+            if reason is not None:
+                rejected.append((uas_id, reason))
+        return rejected
+
+    def _count(self, reason: RejectReason | None) -> RejectReason | None:
         if reason is None:
             self.counters.accepted += 1
         else:
             self.counters.rejected[reason] = self.counters.rejected.get(reason, 0) + 1
         return reason
 
-    def _admit(self, now_s: float, rx_sysid: int, obs: Observation) -> RejectReason | None:
-        reason = check_values(obs, self.config) or check_time(obs.t_s, now_s, self.config)
-        if reason is not None:
-            return reason
-        key = group_key(obs.uas_id, obs.rid_timestamp_s)
+    def _group(
+        self,
+        now_s: float,
+        rx_sysid: int,
+        uas_id: str,
+        t_s: float,
+        rx_geodetic: Vec3,
+        claimed_geodetic: Vec3,
+        rid_timestamp_s: float,
+        rssi_dbm: float,
+        source: Observation | list[float],
+    ) -> RejectReason | None:
+        """File a report whose values passed their checks under its broadcast (``source``:
+        the report, or its row of ``ObservationRows``, for the claimed velocity)."""
+        key = group_key(uas_id, rid_timestamp_s)
         group = self._open.get(key)
-        rx_p = self._rx_enu(rx_sysid, obs.rx_lat_deg, obs.rx_lon_deg, obs.rx_alt_m)
-        claimed_geo = (obs.claimed_lat_deg, obs.claimed_lon_deg, obs.claimed_alt_m)
-        if group is not None and group.claimed_geodetic == claimed_geo:
+        rx_p = self._rx_enu(rx_sysid, rx_geodetic)
+        if group is not None and group.claimed_geodetic == claimed_geodetic:
             claimed_p = group.claimed_p_enu_m  # every receiver reports the same claim
         else:
-            claimed_p = frames.geodetic_to_enu_point(self.origin, *claimed_geo)
+            claimed_p = frames.geodetic_to_enu_point(self.origin, *claimed_geodetic)
         limit = self.config.max_distance_m
         if math.hypot(*rx_p) > limit or math.hypot(*claimed_p) > limit:
             return RejectReason.DISTANCE_RANGE
@@ -313,24 +433,25 @@ class Ingest:
         if group is None:
             if len(self._open) >= self.config.max_open_groups:
                 return RejectReason.TOO_MANY_GROUPS
-            velocity = claimed_velocity_enu(obs)
-            group = _Group(obs.uas_id, obs.rid_timestamp_s, now_s, claimed_geo, claimed_p, velocity)
+            if isinstance(source, Observation):
+                velocity = claimed_velocity_enu(source)
+            else:
+                course, speed_h, speed_v = map(_none_if_nan, source[FIRST_OPTIONAL_COLUMN:])
+                velocity = _claimed_velocity(course, speed_h, speed_v)
+            group = _Group(uas_id, rid_timestamp_s, now_s, claimed_geodetic, claimed_p, velocity)
             self._open[key] = group
         elif rx_sysid in group.heard_by:
             return RejectReason.DUPLICATE
-        group.add(ReportedReception(rx_sysid, obs.t_s, rx_p, obs.rssi_dbm))
+        group.add(ReportedReception(rx_sysid, t_s, rx_p, rssi_dbm))
         return None
 
-    def _rx_enu(
-        self, rx_sysid: int, lat_deg: float, lon_deg: float, alt_m: float
-    ) -> tuple[float, float, float]:
+    def _rx_enu(self, rx_sysid: int, geodetic: Vec3) -> Vec3:
         """The receiver's ENU position: a companion reports every frame it heard in one step
         from one position, so the last conversion per receiver is reused when it matches."""
-        geodetic = (lat_deg, lon_deg, alt_m)
         last = self._last_rx.get(rx_sysid)
         if last is not None and last[0] == geodetic:
             return last[1]
-        p_enu_m = frames.geodetic_to_enu_point(self.origin, lat_deg, lon_deg, alt_m)
+        p_enu_m = frames.geodetic_to_enu_point(self.origin, *geodetic)
         self._last_rx[rx_sysid] = (geodetic, p_enu_m)
         return p_enu_m
 

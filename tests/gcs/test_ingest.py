@@ -13,11 +13,13 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from ridsafe.common import frames
 from ridsafe.common.errors import FieldValueError
 from ridsafe.common.frames import GeodeticOrigin
-from ridsafe.common.messages import Observation
+from ridsafe.common.messages import OBSERVATION_COLUMNS, Observation, ObservationRows
 from ridsafe.gcs.config import GcsConfig
 from ridsafe.gcs.ingest import (
     Ingest,
@@ -349,3 +351,76 @@ def test_a_receiver_that_moves_between_reports_is_placed_where_each_report_says(
     assert len(claims) == 3
     for claim, (rx_enu_m, _) in zip(claims, reports, strict=True):
         np.testing.assert_allclose(claim.rx_p_enu_m, [rx_enu_m], atol=1e-6)
+
+
+def _rows(observations: list[Observation]) -> ObservationRows:
+    """The rows a columnar link decodes from these reports."""
+    values = np.array(
+        [
+            [math.nan if getattr(o, c) is None else getattr(o, c) for c in OBSERVATION_COLUMNS]
+            for o in observations
+        ]
+    )
+    values.setflags(write=False)
+    return ObservationRows(values, tuple(o.uas_id for o in observations))
+
+
+_VARIANTS: list[dict[str, object]] = [
+    {},
+    {},
+    {"rssi_dbm": -200.0},
+    {"rssi_dbm": math.nan},
+    {"claimed_course_deg": math.inf},
+    {"claimed_course_deg": None},
+    {"claimed_speed_horizontal_m_s": None},
+    {"claimed_speed_horizontal_m_s": 0.0, "claimed_course_deg": None},
+    {"rx_alt_m": 20_000.0},
+    {"rx_lat_deg": 91.0},
+    {"rx_lon_deg": 181.0},
+    {"claimed_lat_deg": -91.0},
+    {"claimed_lon_deg": -180.5},
+    {"claimed_alt_m": -2000.0},
+    {"rssi_dbm": 45.0},
+    {"t_s": 1.6},
+    {"t_s": -4.5},
+    {"t_s": 1.5},
+    {"uas_id": ""},
+    {"uas_id": " \x00"},
+    {"uas_id": BENIGN},
+    {"rid_timestamp_s": 1201.0},
+]
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    reports=st.lists(
+        st.tuples(st.integers(0, len(_VARIANTS) - 1), st.integers(1, 4), st.booleans()),
+        min_size=1,
+        max_size=30,
+    )
+)
+def test_rows_are_taken_as_each_report_would_be(reports: list[tuple[int, int, bool]]) -> None:
+    """``add_rows`` = ``add`` of each row in order: the same reasons, counters and claims."""
+    by_rows, one_by_one = Ingest(GcsConfig(), ORIGIN), Ingest(GcsConfig(), ORIGIN)
+    batches: dict[int, list[Observation]] = {}
+    expected: list[tuple[str, RejectReason]] = []
+    for variant, rx_sysid, far in reports:
+        report = _replace(**_VARIANTS[variant])
+        if far:
+            report = dataclasses.replace(report, rx_alt_m=report.rx_alt_m + 1.0)
+        batches.setdefault(rx_sysid, []).append(report)
+    for rx_sysid, batch in batches.items():
+        for report in batch:
+            reason = one_by_one.add(1.0, rx_sysid, report)
+            if reason is not None:
+                expected.append((report.uas_id, reason))
+    got = [r for rx, batch in batches.items() for r in by_rows.add_rows(1.0, rx, _rows(batch))]
+    assert got == expected
+    assert by_rows.counters == one_by_one.counters
+    for a, b in zip(by_rows.close_due(2.0), one_by_one.close_due(2.0), strict=True):
+        assert a.uas_id == b.uas_id and a.rid_timestamp_s == b.rid_timestamp_s
+        for name in ("rx_sysid", "rx_p_enu_m", "rx_t_s", "rssi_dbm", "claimed_p_enu_m"):
+            assert np.array_equal(getattr(a, name), getattr(b, name)), name
+        assert (a.claimed_v_enu_m_s is None) == (b.claimed_v_enu_m_s is None)
+        if a.claimed_v_enu_m_s is not None and b.claimed_v_enu_m_s is not None:
+            assert np.array_equal(a.claimed_v_enu_m_s, b.claimed_v_enu_m_s)

@@ -34,10 +34,15 @@ import typing
 from collections.abc import Callable
 from dataclasses import fields
 
+import numpy as np
+from numpy.typing import NDArray
+
 from ridsafe.common import messages as m
 from ridsafe.common import protocol_messages as p
+from ridsafe.common.jit import jit
+from ridsafe.common.messages import FIRST_OPTIONAL_COLUMN
 
-__all__ = ["first_invalid_field"]
+__all__ = ["first_invalid_field", "rows_valid"]
 
 #: Latest plausible UNIX time (2100-01-01T00:00:00Z), seconds.
 MAX_UNIX_TIME_S = 4_102_444_800.0
@@ -184,6 +189,43 @@ def first_invalid_field(message: m.Message) -> str | None:
     if quick is not None and quick(message):
         return None
     return _first_invalid_field_checked(message)
+
+
+def rows_valid(rows: m.ObservationRows) -> bool:
+    """True when ``first_invalid_field`` finds nothing in any row of ``rows`` (each row's
+    ``Observation``): every value finite (NaN only where the row has None), inside
+    ``_BOUNDS``, every id printable ASCII. False: check the rows one by one, which names the
+    field."""
+    return _rows_in_bounds(rows.values, *_OBSERVATION_COLUMN_BOUNDS) and all(
+        text.isascii() and text.isprintable() for text in set(rows.uas_id)
+    )
+
+
+def _column_bounds(cls: type, columns: tuple[str, ...]) -> tuple[NDArray[np.float64], ...]:
+    """(low, high) per column of ``_BOUNDS[cls]``, unbounded (+-inf) where it has none."""
+    bounds = {name: (low, high) for name, low, high in _BOUNDS[cls]}
+    low, high = zip(*(bounds.get(name, (-math.inf, math.inf)) for name in columns), strict=True)
+    return np.array(low), np.array(high)
+
+
+_OBSERVATION_COLUMN_BOUNDS = _column_bounds(m.Observation, m.OBSERVATION_COLUMNS)
+
+
+@jit
+def _rows_in_bounds(
+    values: NDArray[np.float64], low: NDArray[np.float64], high: NDArray[np.float64]
+) -> bool:
+    """Rules 1 and 2 for every row: the columns before ``FIRST_OPTIONAL_COLUMN`` finite,
+    the rest finite or NaN (None), each inside its bounds (NaN is)."""
+    for r in range(values.shape[0]):
+        for c in range(values.shape[1]):
+            v = values[r, c]
+            if np.isnan(v):
+                if c < FIRST_OPTIONAL_COLUMN:
+                    return False
+            elif np.isinf(v) or v < low[c] or v > high[c]:
+                return False
+    return True
 
 
 def _first_invalid_field_checked(message: m.Message) -> str | None:

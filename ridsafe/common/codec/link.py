@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ridsafe.common import messages as m
-from ridsafe.common.codec.inbound import first_invalid_field
+from ridsafe.common.codec.inbound import first_invalid_field, rows_valid
 from ridsafe.common.codec.signing import ReplayWindow, SigningConfig, SigningState
 from ridsafe.common.codec.wire import (
     CRC_LEN,
@@ -99,10 +99,15 @@ class MavlinkLink:
         src_component: int,
         signing: SigningConfig | None = None,
         replay: ReplayWindow | None = None,
+        columnar: bool = False,
     ) -> None:
         """``replay``: the anti-replay state to check against; links of one core that share
         a key share one (``ReplayWindow``), so a stream replayed through another socket is
-        still seen as old. Default: this link's own."""
+        still seen as old. Default: this link's own. ``columnar``: consecutive messages of a
+        kind with a columnar decoding (``wire.Layout.decode_rows``: RIDSAFE_OBSERVATION)
+        from one sender in one ``feed`` come as one ``Received`` of their rows
+        (``messages.ObservationRows``), decoded together; each still counts as accepted."""
+        self._columnar = columnar
         self._system, self._component, self._seq = src_system, src_component, 0
         self._incompat_flags = 0 if signing is None else IFLAG_SIGNED
         self._pending = b""
@@ -188,6 +193,7 @@ class MavlinkLink:
         buf = self._pending + data if self._pending else data
         self._pending = b""
         received: list[Received] = []
+        run: list[bytes] = []  # checked packets of one columnar message from one sender
         i, n = 0, len(buf)
         while i < n:
             if buf[i] != STX_V2:
@@ -205,10 +211,9 @@ class MavlinkLink:
                 end += SIGNATURE_LEN
             if end > n:
                 break
-            consumed, item = self._decode_packet(buf[i:end], mlen)
-            if item is not None:
-                received.append(item)
-            i += consumed
+            i += self._take(buf[i:end], mlen, run, received)
+        if run:
+            self._decode_run(run, received)
         if i < n:
             if end_of_datagram:
                 self._drop("truncated", f"{n - i} bytes of a partial packet")
@@ -257,8 +262,28 @@ class MavlinkLink:
         self._drop("bad_data", f"{j - i} bytes of {what}")
         return j
 
-    def _decode_packet(self, packet: bytes, mlen: int) -> tuple[int, Received | None]:
-        """Check and decode one complete packet; returns (bytes consumed, message or None).
+    def _take(self, packet: bytes, mlen: int, run: list[bytes], received: list[Received]) -> int:
+        """Check one complete packet and decode it into ``received``, or, with columnar
+        decoding, add it to ``run`` (decoded once the run ends); returns bytes consumed."""
+        consumed, packet_layout = self._check_packet(packet, mlen)
+        if packet_layout is None:
+            return consumed
+        if self._columnar and packet_layout.decode_rows is not None:
+            last = run[-1] if run else packet
+            if last[5:10] != packet[5:10] or last[2] != packet[2]:  # sender, id, signed
+                self._decode_run(run, received)
+            run.append(packet)
+            return consumed
+        if run:
+            self._decode_run(run, received)
+        item = self._decoded(packet_layout, packet, mlen)
+        if item is not None:
+            received.append(item)
+        return consumed
+
+    def _check_packet(self, packet: bytes, mlen: int) -> tuple[int, Layout | None]:
+        """Check one complete packet's id, CRC and signature; returns (bytes consumed, its
+        layout, or None when it is dropped).
 
         A packet whose CRC does not match consumes one byte only, so a false start marker
         inside garbage cannot hide the real packet that follows.
@@ -274,20 +299,44 @@ class MavlinkLink:
         if crc != x25_crc(packet[1:crc_end] + packet_layout.crc_extra_byte):
             self._drop("bad_data", f"CRC mismatch in message {msg_id} from {src_system}")
             return 1, None
-        signed = len(packet) > crc_end + CRC_LEN
         if self.signing is not None and not self._signature_ok(
-            packet, signed, src_system, src_component
+            packet, len(packet) > crc_end + CRC_LEN, src_system, src_component
         ):
             return len(packet), None
+        return len(packet), packet_layout
+
+    def _decoded(self, packet_layout: Layout, packet: bytes, mlen: int) -> Received | None:
+        """The message of a checked packet, or None (counted) when the apps do not use it
+        or a value is one no valid sender produces."""
+        crc_end = HEADER_LEN + mlen
         message = self._decode_message(packet_layout, packet[HEADER_LEN:crc_end], packet)
         if message is False:
-            return len(packet), None
+            return None
         if message is None:
             self.counters.unhandled += 1
-            logger.debug("ignoring %s from %d", packet_layout.name, src_system)
-            return len(packet), None
+            logger.debug("ignoring %s from %d", packet_layout.name, packet[5])
+            return None
         self.counters.accepted += 1
-        return len(packet), Received(src_system, src_component, message, signed)
+        return Received(packet[5], packet[6], message, len(packet) > crc_end + CRC_LEN)
+
+    def _decode_run(self, run: list[bytes], received: list[Received]) -> None:
+        """Decode checked packets of one columnar message from one sender (``run``, emptied)
+        into one ``Received`` of their rows; when any row is not plainly valid, each packet
+        on its own, as any other message, so that each is kept or dropped and counted by
+        itself."""
+        first = run[0]
+        packet_layout = layout(first[7] | first[8] << 8 | first[9] << 16)
+        assert packet_layout is not None and packet_layout.decode_rows is not None
+        rows = packet_layout.decode_rows([p[HEADER_LEN : HEADER_LEN + p[1]] for p in run])
+        if rows is not None and rows_valid(rows):
+            self.counters.accepted += len(run)
+            received.append(Received(first[5], first[6], rows, bool(first[2] & IFLAG_SIGNED)))
+        else:
+            for packet in run:
+                item = self._decoded(packet_layout, packet, packet[1])
+                if item is not None:
+                    received.append(item)
+        run.clear()
 
     def _decode_message(self, packet_layout: Layout, payload: bytes, packet: bytes) -> Any:
         """The domain message of a checked packet; None: the apps do not use it; False:

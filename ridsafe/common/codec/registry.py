@@ -13,7 +13,7 @@ import inspect
 import operator
 import re
 import struct
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from ridsafe.common import messages as m
@@ -35,6 +35,11 @@ for _name in odid.RAW_NAMES:
 def decoder_for(name: str) -> FromMav | None:
     """The from-MAVLink function of a message name (None: the apps do not use it)."""
     return _FROM_NAME.get(name)
+
+
+def rows_decoder_for(name: str) -> Callable[[Sequence[bytes]], m.ObservationRows | None] | None:
+    """The columnar decoding of a message name (many payloads at once), or None."""
+    return ridsafe_messages.ROW_DECODERS.get(name)
 
 
 def to_wire(message: m.Message) -> Wire:

@@ -7,9 +7,15 @@ and RIDSAFE_SPOOF_ALERT come down; the LOCKSTEP pair paces a lockstep run over U
 
 from __future__ import annotations
 
+import re
+import struct
+from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
+
 from ridsafe.common import messages as m
+from ridsafe.common.codec import observation_kernels
 from ridsafe.common.codec.units import (
     DEG_E7,
     ODID_ID_LEN,
@@ -112,6 +118,56 @@ def _observation_from(raw: Any) -> m.Observation:
     )
 
 
+def _check_record_offsets(cls: Any) -> None:
+    """The compiled decoding's field offsets are the message's wire layout (raises if not)."""
+    offset = 0
+    for name, (count, code) in zip(
+        cls.ordered_fieldnames,
+        re.findall(r"(\d*)([a-zA-Z?])", cls.unpacker.format[1:]),
+        strict=True,
+    ):
+        if observation_kernels.OFFSETS[name] != offset:
+            raise AssertionError(
+                f"{cls.msgname}.{name} at byte {offset}, the kernel reads it elsewhere"
+            )
+        offset += struct.calcsize(f"<{count}{code}")
+    if offset > observation_kernels.RECORD_STRIDE:
+        raise AssertionError(f"{cls.msgname}: {offset} bytes, more than the kernel's stride")
+
+
+_check_record_offsets(mav.MAVLink_ridsafe_observation_message)
+_OBSERVATION_SIZE = mav.MAVLink_ridsafe_observation_message.unpacker.size
+_ID_OFFSET = observation_kernels.OFFSETS["uas_id"]
+#: Claimed ids as sent (NUL padding dropped or not) -> their text, for ``observation_rows``.
+_ID_TEXT: dict[bytes, str] = {}
+_ID_TEXT_SIZE = 4096
+
+
+def observation_rows(payloads: Sequence[bytes]) -> m.ObservationRows | None:
+    """RIDSAFE_OBSERVATION payloads (as framed: trailing zeros trimmed) decoded together,
+    each row what ``_observation_from`` makes of its payload; None when any payload is one
+    ``_observation_from`` refuses (a latitude or longitude out of range, a non-finite
+    value): the caller then decodes them one by one, which says which and why."""
+    size, stride = _OBSERVATION_SIZE, observation_kernels.RECORD_STRIDE
+    buf = np.frombuffer(
+        bytearray(b"".join(p[:size].ljust(stride, b"\x00") for p in payloads)), np.uint8
+    )
+    values = np.empty((len(payloads), len(m.OBSERVATION_COLUMNS)))
+    if not observation_kernels.decode_observations(buf, values):
+        return None
+    values.setflags(write=False)
+    return m.ObservationRows(values, tuple(_id_text(p[_ID_OFFSET:size]) for p in payloads))
+
+
+def _id_text(sent: bytes) -> str:
+    known = _ID_TEXT.get(sent)
+    if known is None:
+        if len(_ID_TEXT) >= _ID_TEXT_SIZE:
+            _ID_TEXT.clear()
+        known = _ID_TEXT[sent] = text(sent)
+    return known
+
+
 def _region_to(msg: m.UnsafeRegionMsg) -> Wire:
     return wire(
         mav.MAVLink_ridsafe_unsafe_region_message,
@@ -199,3 +255,6 @@ CODECS: CodecTable = {
     m.LockstepTick: ("RIDSAFE_LOCKSTEP_TICK", _tick_to, _tick_from),
     m.LockstepDone: ("RIDSAFE_LOCKSTEP_DONE", _done_to, _done_from),
 }
+
+#: Messages with a columnar decoding (``MavlinkLink(columnar=True)``), by name.
+ROW_DECODERS = {"RIDSAFE_OBSERVATION": observation_rows}

@@ -20,7 +20,7 @@ import collections
 import functools
 import operator
 import struct
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
@@ -28,6 +28,7 @@ from ridsafe.common import messages as m
 from ridsafe.common.codec.registry import (
     byte_arrays,
     decoder_for,
+    rows_decoder_for,
     to_wire,
     wire_struct,
     wire_values,
@@ -136,6 +137,9 @@ class Layout:
     chars: tuple[int, ...]
     make_view: Callable[[Iterable[Any]], Any]
     decode: FromMav | None  # the domain message of a view; None: the apps do not use it
+    #: Many payloads of this message at once (``MavlinkLink``'s columnar decoding), or None
+    #: when one of them is not plainly valid; None: no columnar decoding.
+    decode_rows: Callable[[Sequence[bytes]], m.ObservationRows | None] | None
     remembered: bool  # its decodings kept by the links' memo (not in UNIQUE_PAYLOAD_MESSAGES)
 
     def view(self, payload: bytes) -> Any:
@@ -201,6 +205,7 @@ def layout(msg_id: int) -> Layout | None:
         chars,
         _view_type(cls.msgname, tuple(cls.fieldnames)),
         decoder_for(cls.msgname),
+        rows_decoder_for(cls.msgname),
         cls.msgname not in UNIQUE_PAYLOAD_MESSAGES,
     )
 
