@@ -13,6 +13,7 @@ decode, or carry no LOCATION, are counted too.
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
@@ -22,7 +23,7 @@ from ridsafe.common.heard import HeardRidFrame, RidFrameDecoder
 from ridsafe.common.logsink import LogSink
 from ridsafe.companion.neighbours import NeighbourTable, claimed_id
 from ridsafe.companion.rid import Periodic
-from ridsafe.companion.telemetry import OwnTelemetry, ReceiverFix
+from ridsafe.companion.telemetry import OwnTelemetry
 
 __all__ = [
     "MAX_PENDING_OBSERVATIONS",
@@ -56,18 +57,15 @@ class ObservationCounters:
 
 
 def make_observation(
-    loc: m.OdidLocation,
-    heard: HeardRidFrame,
-    fix: ReceiverFix,
-    t_s: float,
-    max_extrapolation_s: float,
+    loc: m.OdidLocation, heard: HeardRidFrame, rx_geodetic: m.Vec3, t_s: float
 ) -> m.Observation | str:
-    """The report of LOCATION ``loc`` read from frame ``heard`` (``t_s``: the receive time on
-    the clock reports use), or the reason it cannot be made."""
+    """The report of LOCATION ``loc`` read from frame ``heard`` (``rx_geodetic``: where the
+    receiver was when it heard it, ``ReceiverFix.at``; ``t_s``: the receive time on the
+    clock reports use), or the reason it cannot be made."""
     claimed_alt = loc.alt_geodetic_m if loc.alt_geodetic_m is not None else loc.alt_baro_m
     if loc.lat_deg is None or loc.lon_deg is None or claimed_alt is None:
         return "no_claimed_position"
-    rx_lat, rx_lon, rx_alt = fix.at(heard.rx_t_s, max_extrapolation_s)
+    rx_lat, rx_lon, rx_alt = rx_geodetic
     timestamp = UNKNOWN_RID_TIMESTAMP_S if loc.timestamp_s is None else loc.timestamp_s
     return m.Observation(
         t_s=t_s,
@@ -105,15 +103,16 @@ class ObservationBatcher:
         self,
         loc: m.OdidLocation,
         heard: HeardRidFrame,
-        fix: ReceiverFix | None,
+        rx_geodetic: m.Vec3 | None,
         t_s: float,
-        max_extrapolation_s: float,
     ) -> None:
+        """Batch the report of ``loc`` (``make_observation``; ``rx_geodetic`` None: the
+        receiver does not know where it is)."""
         self.counters.heard += 1
-        if fix is None:
+        if rx_geodetic is None:
             self._skip("no_own_position", loc)
             return
-        made = make_observation(loc, heard, fix, t_s, max_extrapolation_s)
+        made = make_observation(loc, heard, rx_geodetic, t_s)
         if isinstance(made, str):
             self._skip(made, loc)
             return
@@ -204,11 +203,14 @@ class ObservationReporter:
         """Read what was heard since the last call, then send the batch if one is due."""
         heard_now, self._heard = self._heard, []
         fix = own.fix() if heard_now else None
+        rx_t_s, rx_geodetic = math.nan, None  # the frames heard at one time: one position
         for heard in heard_now:
             rx_sim_s = own.sim_time(heard.rx_t_s)
+            if fix is not None and heard.rx_t_s != rx_t_s:
+                rx_t_s, rx_geodetic = heard.rx_t_s, fix.at(heard.rx_t_s, self.max_extrapolation_s)
             for loc in self._locations(heard):
                 self.neighbours.update(rx_sim_s, loc)
-                self.batcher.add(loc, heard, fix, rx_sim_s, self.max_extrapolation_s)
+                self.batcher.add(loc, heard, rx_geodetic, rx_sim_s)
         self.send(now_s, self.batcher.take_due(now_s), own, gcs_seen, send, sink)
 
     def finish(
