@@ -99,3 +99,26 @@ def _decoded_fresh(message: m.Message) -> m.Message:
     assert layout is not None
     decoded: m.Message = codec.MavlinkLink(1, 191)._decode_fresh(layout, payload.data, b"")
     return decoded
+
+
+def test_a_frame_heard_by_many_receivers_is_decoded_whole_once_each_with_its_own_rssi() -> None:
+    """RIDSAFE_RID_FRAME: the bytes after the signal strength decoded once
+    (``wire.known_rid_frame``); each receiver's strength its own, a non-finite one refused
+    and counted as before, another frame decoded whole."""
+    frame = bytes(range(1, 26))
+    sender = codec.MavlinkLink(7, 200)
+    got: list[m.RidFrameReport] = []
+    for rssi in (-60.5, -71.25, -80.0):
+        receiver = codec.MavlinkLink(255, 190)
+        (received,) = receiver.feed(sender.pack(m.RidFrameReport(frame, rssi, b"AB12", 1)))
+        assert isinstance(received.message, m.RidFrameReport)
+        got.append(received.message)
+    assert [r.rssi_dbm for r in got] == [-60.5, -71.25, -80.0]
+    assert all(r == dataclasses.replace(got[0], rssi_dbm=r.rssi_dbm) for r in got)
+    assert got[1].frame is got[0].frame  # from the memo
+    receiver = codec.MavlinkLink(255, 190)
+    assert receiver.feed(sender.pack(m.RidFrameReport(frame, math.nan, b"AB12", 1))) == []
+    assert receiver.counters.invalid_fields == {"RIDSAFE_RID_FRAME.decode": 1}
+    other = bytes(range(2, 27))
+    (received,) = receiver.feed(sender.pack(m.RidFrameReport(other, -60.5, b"AB12", 1)))
+    assert received.message == m.RidFrameReport(other, -60.5, b"AB12", 1)

@@ -343,6 +343,8 @@ class MavlinkLink:
         a value no valid sender produces (dropped and counted by message and field)."""
         if packet_layout.decode is None:
             return None
+        if packet_layout.decode_known is not None and packet_layout.remember is not None:
+            return self._decode_by_tail(packet_layout, payload, packet)
         if not packet_layout.remembered:
             return self._decode_fresh(packet_layout, payload, packet)
         key = (packet_layout.name, payload)
@@ -355,6 +357,22 @@ class MavlinkLink:
                 _DECODED.clear()
             _DECODED[key] = message
         return message
+
+    def _decode_by_tail(self, packet_layout: Layout, payload: bytes, packet: bytes) -> Any:
+        """``_decode_message`` of a message with a per-receiver head (``Layout.decode_known``):
+        the rest decoded once while remembered, every message still checked at the edge."""
+        assert packet_layout.decode_known is not None and packet_layout.remember is not None
+        known = packet_layout.decode_known(payload)
+        if known is None:
+            message = self._decode_fresh(packet_layout, payload, packet)
+            if message is not None and message is not False:
+                packet_layout.remember(payload, message)
+            return message
+        bad_field = first_invalid_field(known)
+        if bad_field is not None:
+            self._reject_field(packet_layout.name, bad_field, packet[5], packet[6], "out of range")
+            return False
+        return known
 
     def _decode_fresh(self, packet_layout: Layout, payload: bytes, packet: bytes) -> Any:
         """``_decode_message`` without the memo."""

@@ -18,6 +18,7 @@ from __future__ import annotations
 import binascii
 import collections
 import functools
+import math
 import operator
 import struct
 from collections.abc import Callable, Iterable, Sequence
@@ -104,6 +105,35 @@ def _rid_frame_payload(report: m.RidFrameReport) -> Payload:
     return payload
 
 
+#: The decoding twin of ``_RID_FRAME_TAILS``: a RIDSAFE_RID_FRAME payload's bytes after the
+#: signal strength -> the report decoded from them lately. A receiver's link decodes only the
+#: strength of a frame another receiver's link (a core of this process) decoded whole.
+_RID_FRAME_REPORTS: dict[bytes, m.RidFrameReport] = {}
+
+
+def known_rid_frame(payload: bytes) -> m.RidFrameReport | None:
+    """The report of a RIDSAFE_RID_FRAME payload whose bytes after the signal strength were
+    decoded lately (``remember_rid_frame``), with this payload's strength; None when they
+    were not, or the strength is not finite (the whole decoding then says why)."""
+    if len(payload) <= _RSSI_F32.size:
+        return None
+    known = _RID_FRAME_REPORTS.get(payload[_RSSI_F32.size :])
+    if known is None:
+        return None
+    (rssi_dbm,) = _RSSI_F32.unpack_from(payload)
+    if not math.isfinite(rssi_dbm):
+        return None
+    return m.RidFrameReport(known.frame, rssi_dbm, known.sender_id, known.transport, known.channel)
+
+
+def remember_rid_frame(payload: bytes, report: m.Message) -> None:
+    """Keep a valid report decoded from ``payload`` whole, for ``known_rid_frame``."""
+    if len(payload) > _RSSI_F32.size and type(report) is m.RidFrameReport:
+        if len(_RID_FRAME_REPORTS) >= _RID_FRAME_TAILS_SIZE:
+            _RID_FRAME_REPORTS.clear()
+        _RID_FRAME_REPORTS[payload[_RSSI_F32.size :]] = report
+
+
 def _view_type(name: str, fieldnames: tuple[str, ...]) -> Callable[[Iterable[Any]], Any]:
     """The maker of a decoded packet's view: a named tuple of the fields in XML order, read
     as attributes by the from-MAVLink functions, with pymavlink's ``get_type`` and
@@ -140,6 +170,10 @@ class Layout:
     #: Many payloads of this message at once (``MavlinkLink``'s columnar decoding), or None
     #: when one of them is not plainly valid; None: no columnar decoding.
     decode_rows: Callable[[Sequence[bytes]], m.ObservationRows | None] | None
+    #: The message of a payload from what a payload alike but for its first bytes decoded
+    #: to (None: not known), and what keeps a decoding for it (``known_rid_frame``).
+    decode_known: Callable[[bytes], m.Message | None] | None
+    remember: Callable[[bytes, m.Message], None] | None
     remembered: bool  # its decodings kept by the links' memo (not in UNIQUE_PAYLOAD_MESSAGES)
 
     def view(self, payload: bytes) -> Any:
@@ -182,6 +216,12 @@ UNIQUE_PAYLOAD_MESSAGES = frozenset(
 )
 
 
+#: Messages decoded through a memo of their payload after a per-receiver head.
+_TAIL_MEMOS: dict[
+    str, tuple[Callable[[bytes], m.Message | None], Callable[[bytes, m.Message], None]]
+] = {"RIDSAFE_RID_FRAME": (known_rid_frame, remember_rid_frame)}
+
+
 @functools.cache
 def layout(msg_id: int) -> Layout | None:
     """How to check and unpack message id ``msg_id`` (None: not in the dialect)."""
@@ -195,6 +235,7 @@ def layout(msg_id: int) -> Layout | None:
         lengths = [1 if w in byte_arrays(cls) else n for w, n in enumerate(lengths)]
     tips = [sum(lengths[:order]) for order in cls.orders]
     slices = tuple((tip, lengths[order]) for tip, order in zip(tips, cls.orders, strict=True))
+    known, remember = _TAIL_MEMOS.get(cls.msgname, (None, None))
     return Layout(
         cls.msgname,
         _CRC_EXTRA_BYTE[cls.crc_extra],
@@ -206,6 +247,8 @@ def layout(msg_id: int) -> Layout | None:
         _view_type(cls.msgname, tuple(cls.fieldnames)),
         decoder_for(cls.msgname),
         rows_decoder_for(cls.msgname),
+        known,
+        remember,
         cls.msgname not in UNIQUE_PAYLOAD_MESSAGES,
     )
 
