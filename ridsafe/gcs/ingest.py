@@ -1,8 +1,9 @@
 """Observation reports -> observed claims: validation, grouping, bounded history. Pure (no I/O).
 
 Each companion reports every RID location broadcast it heard (``messages.Observation``,
-geodetic). The GCS turns one report into one :class:`ReportedReception` in the scenario ENU frame
-about the origin (``frames.geodetic_to_enu``) and groups the receptions of one broadcast by
+geodetic; a companion's batch as ``messages.ObservationRows``). The GCS turns one report into
+one reception (receive time, receiver position in the scenario ENU frame about the origin,
+``frames.geodetic_to_enu``, RSSI, receiver id) and groups the receptions of one broadcast by
 its key ``(uas_id, rid_timestamp_s)``. A group opens at its first reception (GCS sim time
 ``t0``) and closes once ``now_s - t0 >= group_window_s``, so receptions of one broadcast that
 arrive over a few ticks end up together; closed groups become
@@ -42,11 +43,10 @@ from numpy.typing import NDArray
 
 from ridsafe.common import frames
 from ridsafe.common.frames import GeodeticOrigin
-from ridsafe.common.frozen import quick_init
 from ridsafe.common.jit import jit
 from ridsafe.common.messages import FIRST_OPTIONAL_COLUMN, Observation, ObservationRows, Vec3
 from ridsafe.gcs.config import GcsConfig
-from ridsafe.gcs.pipeline_api import FloatArray, ObservedClaim, readonly
+from ridsafe.gcs.pipeline_api import ObservedClaim, readonly
 
 logger = logging.getLogger(__name__)
 
@@ -68,17 +68,6 @@ class RejectReason(enum.Enum):
     DUPLICATE = "duplicate"
     LATE = "late"
     TOO_MANY_GROUPS = "too_many_groups"
-
-
-@quick_init
-@dataclass(frozen=True, slots=True)
-class ReportedReception:
-    """One receiver's report of one broadcast, in the scenario ENU frame."""
-
-    rx_sysid: int
-    t_s: float
-    rx_p_enu_m: Vec3
-    rssi_dbm: float
 
 
 # --- checks (pure functions) ---------------------------------------------------------------
@@ -211,11 +200,14 @@ def _plain_values(
 # --- grouping --------------------------------------------------------------------------------
 
 
+#: One reception as a group keeps it: receive time, receiver ENU x, y, z, RSSI, system id.
+_Reception = tuple[float, float, float, float, float, int]
+
+
 @dataclass
 class _Group:
-    """One open broadcast: its claim and its receptions so far, each written as it comes
-    into one row of ``rows`` (``_T, _X, _Y, _Z, _RSSI, _SYSID``; the system id as a float,
-    exact), so closing the broadcast converts nothing per reception (``claims_of``)."""
+    """One open broadcast: its claim and its receptions so far, each kept as it comes as one
+    ``_Reception`` (``claims_of`` turns every group's into arrays at once)."""
 
     uas_id: str
     rid_timestamp_s: float
@@ -223,25 +215,19 @@ class _Group:
     claimed_geodetic: Vec3  # (lat deg, lon deg, alt m) of the first report
     claimed_p_enu_m: Vec3  # the same in ENU
     claimed_v_enu_m_s: Vec3 | None
-    rows: FloatArray = field(default_factory=lambda: np.empty((_FIRST_ROWS, _COLUMNS)))
-    n: int = 0
+    rows: list[_Reception] = field(default_factory=list)
     first_t_s: float = math.inf
     heard_by: set[int] = field(default_factory=set)
 
-    def add(self, r: ReportedReception) -> None:
-        if self.n == self.rows.shape[0]:
-            self.rows = np.concatenate((self.rows, np.empty_like(self.rows)))
-        east, north, up = r.rx_p_enu_m
-        self.rows[self.n] = (r.t_s, east, north, up, r.rssi_dbm, r.rx_sysid)
-        self.n += 1
-        self.heard_by.add(r.rx_sysid)
-        self.first_t_s = min(self.first_t_s, r.t_s)
+    def add(self, rx_sysid: int, t_s: float, rx_p_enu_m: Vec3, rssi_dbm: float) -> None:
+        east, north, up = rx_p_enu_m
+        self.rows.append((t_s, east, north, up, rssi_dbm, rx_sysid))
+        self.heard_by.add(rx_sysid)
+        self.first_t_s = min(self.first_t_s, t_s)
 
 
 _T, _X, _Y, _Z, _RSSI, _SYSID = range(6)
-_COLUMNS = 6
 _NO_VELOCITY = (math.nan, math.nan, math.nan)  # a row of ``claims_of``'s velocities, unused
-_FIRST_ROWS = 16
 
 
 def claim_order(claim: ObservedClaim) -> tuple[float, str]:
@@ -256,9 +242,9 @@ def claims_of(groups: Sequence[_Group]) -> list[ObservedClaim]:
     cycle, none per reception or claim)."""
     if not groups:
         return []
-    sizes = [g.n for g in groups]
+    sizes = [len(g.rows) for g in groups]
     ends = list(itertools.accumulate(sizes))
-    stacked = np.concatenate([g.rows[: g.n] for g in groups])
+    stacked = np.array([row for g in groups for row in g.rows], dtype=np.float64)
     sysid = stacked[:, _SYSID].astype(np.int64)
     group = np.repeat(np.arange(len(groups), dtype=np.int64), sizes)
     order = np.argsort((group << 32) | sysid)  # (group, receiver): system ids are < 2^32
@@ -442,7 +428,7 @@ class Ingest:
             self._open[key] = group
         elif rx_sysid in group.heard_by:
             return RejectReason.DUPLICATE
-        group.add(ReportedReception(rx_sysid, t_s, rx_p, rssi_dbm))
+        group.add(rx_sysid, t_s, rx_p, rssi_dbm)
         return None
 
     def _rx_enu(self, rx_sysid: int, geodetic: Vec3) -> Vec3:
