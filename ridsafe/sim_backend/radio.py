@@ -31,6 +31,7 @@ bit-identical to one before they existed.
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -216,5 +217,8 @@ class RadioChannel:
             self.delivered += int(np.count_nonzero(ok))
             if cfg.rssi_resolution_db > 0.0:
                 rssi = np.round(rssi / cfg.rssi_resolution_db) * cfg.rssi_resolution_db
-            receptions.extend(Reception(int(r), tx, float(rssi[r])) for r in np.flatnonzero(ok))
+            receivers = np.flatnonzero(ok)
+            receptions.extend(
+                map(Reception, receivers.tolist(), itertools.repeat(tx), rssi[receivers].tolist())
+            )
         return receptions

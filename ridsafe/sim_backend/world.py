@@ -178,6 +178,11 @@ class SimBackend:
             for i in range(self.n_vehicles)
             for kind in kinds
         }
+        #: Per vehicle index: its companion endpoint, where it has one (RID reports go there).
+        self._companion_ports = [
+            self.endpoints.get(endpoint_name(i + 1, EndpointKind.COMPANION))
+            for i in range(self.n_vehicles)
+        ]
         self.last_transmissions: list[Transmission] = []
         self.last_receptions: list[Reception] = []
         self._pending_air: list[Transmission] = []
@@ -416,12 +421,13 @@ class SimBackend:
             self.last_receptions = self._deliver_each(positions, euler_rad)
         else:
             self.last_receptions = self.radio.deliver(self.last_transmissions, positions, euler_rad)
+        transponders, companions = self.transponders, self._companion_ports
         for rx in self.last_receptions:
-            sender = self.transponders[rx.transmission.sender]
-            report = self.transponders[rx.receiver].report(
+            sender = transponders[rx.transmission.sender]
+            report = transponders[rx.receiver].report(
                 rx.transmission.payload, sender.radio_id, rx.rssi_dbm
             )
-            port = self.endpoints.get(endpoint_name(rx.receiver + 1, EndpointKind.COMPANION))
+            port = companions[rx.receiver]
             if port is not None:
                 self._send(port, report, transponder=True)
 
