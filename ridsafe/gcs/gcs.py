@@ -45,12 +45,20 @@ import math
 import time
 from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
 from ridsafe.common import frames, topics
 from ridsafe.common import messages as m
-from ridsafe.common.codec import LinkCounters, MavlinkLink, Received, ReplayWindow, SigningConfig
+from ridsafe.common.codec import (
+    LinkCounters,
+    MavlinkLink,
+    Received,
+    ReplayWindow,
+    SigningConfig,
+    warm_up_columnar,
+)
 from ridsafe.common.frames import GeodeticOrigin
 from ridsafe.common.logsink import LogSink
 from ridsafe.common.shell import (
@@ -61,7 +69,14 @@ from ridsafe.common.shell import (
     not_from_systems,
 )
 from ridsafe.gcs.config import GCS_COMPONENT_ID, GCS_SYSTEM_ID, ClockSource, GcsConfig
-from ridsafe.gcs.ingest import Ingest, RateLimitedLog, RejectReason, check_values, claim_order
+from ridsafe.gcs.ingest import (
+    Ingest,
+    RateLimitedLog,
+    RejectReason,
+    check_values,
+    claim_order,
+    plain_rows,
+)
 from ridsafe.gcs.pipeline_api import (
     AlertChange,
     CycleOutput,
@@ -194,6 +209,7 @@ class Gcs:
         #: component), not addresses, so a stream re-sent from a new socket is still old.
         self.replay = ReplayWindow()
         self.ingest = Ingest(config, origin)
+        self._ensure_reports_warm(config)
         self.counters = GcsCounters()
         self.shell = AppShell("gcs", open_endpoint=self._open_peer)
         self._peers: dict[str, _Peer] = {}  # by endpoint name, peer_endpoint(key)
@@ -209,6 +225,16 @@ class Gcs:
         #: Transmissions closed since the last cycle (``_close_due``), for the next one.
         self._closed: list[ObservedClaim] = []
         self._warn = RateLimitedLog(logger, config.warn_interval_s)
+
+    _reports_warm: ClassVar[bool] = False
+
+    @classmethod
+    def _ensure_reports_warm(cls, config: GcsConfig) -> None:
+        """Load the kernels a companion's batch of reports goes through (the peer links'
+        columnar decoding, ``ingest.plain_rows``) once per process, before a run needs them."""
+        if not cls._reports_warm:
+            plain_rows(warm_up_columnar(), 0.0, config)
+            cls._reports_warm = True
 
     # -- queries ------------------------------------------------------------------------------
 

@@ -22,7 +22,7 @@ This package re-exports the names the apps use, so ``codec.MavlinkLink`` is the 
 """
 
 from ridsafe.common.codec.fields import message_from_fields, odid_fields
-from ridsafe.common.codec.link import LinkCounters, MavlinkLink, Received
+from ridsafe.common.codec.link import LinkCounters, MavlinkLink, Received, warm_up_columnar
 from ridsafe.common.codec.registry import from_mavlink, to_mavlink
 from ridsafe.common.codec.signing import (
     SIGNING_EPOCH_UNIX_S,
@@ -64,5 +64,6 @@ __all__ = [
     "odid_fields",
     "signing_timestamp_from_unix",
     "to_mavlink",
+    "warm_up_columnar",
     "x25_crc",
 ]

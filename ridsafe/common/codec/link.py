@@ -428,3 +428,14 @@ class MavlinkLink:
             count,
             reason,
         )
+
+
+def warm_up_columnar() -> m.ObservationRows:
+    """Load (or compile) the kernels of a columnar link's decoding before a run needs them:
+    two reports through a real link; returns their rows."""
+    sender, receiver = MavlinkLink(1, 1), MavlinkLink(2, 1, columnar=True)
+    report = m.Observation(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -70.0, None, None, None, "W")
+    (received,) = receiver.feed(sender.pack(report) + sender.pack(report))
+    if not isinstance(received.message, m.ObservationRows):
+        raise AssertionError(f"the warm-up's reports came as {received.message!r}")
+    return received.message
