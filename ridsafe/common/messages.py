@@ -509,9 +509,8 @@ class ObservationRows:
 
     def observation(self, i: int) -> Observation:
         """Row ``i`` as the ``Observation`` it was sent as."""
-        t_s, rx_lat, rx_lon, rx_alt, c_lat, c_lon, c_alt, rid_t, rssi, *optional = self.values[
-            i
-        ].tolist()
+        row = self.values[i].tolist()
+        t_s, rx_lat, rx_lon, rx_alt, c_lat, c_lon, c_alt, rid_t, rssi, *optional = row
         course, speed_h, speed_v = (None if math.isnan(v) else v for v in optional)
         return Observation(
             t_s, rx_lat, rx_lon, rx_alt, c_lat, c_lon, c_alt, rid_t, rssi,

@@ -23,12 +23,7 @@ Each call:
 5. a GCS HEARTBEAT (MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID) at ``heartbeat_hz``; ``/app/counters``
    every ``counters_period_s`` and from :meth:`Gcs.finish`.
 
-Regions go out in the companions' frames: centre ENU -> WGS-84 (``frames.enu_to_geodetic``),
-velocity and covariance ENU -> NED with the permutation
-
-    T = [[0, 1, 0], [1, 0, 0], [0, 0, -1]],   v_ned = T v_enu,   P_ned = T P_enu T^T
-
-sent as the upper triangle (xx, xy, xz, yy, yz, zz). A region is valid until
+Regions go out in the companions' frames (``outputs.region_message``); a region is valid until
 ``min(region.valid_until_s, now + region_validity_s)``; a deleted track's last region is sent
 once more with ``RegionFlags.DELETED``. Alerts are sent when they change, and raised ones
 again every ``alert_repeat_s`` (with their decision time) so late joiners learn them.
@@ -47,10 +42,8 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import ClassVar
 
-import numpy as np
-
-from ridsafe.common import frames, topics
 from ridsafe.common import messages as m
+from ridsafe.common import topics
 from ridsafe.common.codec import (
     LinkCounters,
     MavlinkLink,
@@ -77,70 +70,31 @@ from ridsafe.gcs.ingest import (
     claim_order,
     plain_rows,
 )
+from ridsafe.gcs.outputs import (
+    alert_message,
+    alert_record,
+    region_is_finite,
+    region_message,
+    region_record,
+    track_record,
+    verdicts_record,
+)
 from ridsafe.gcs.pipeline_api import (
     AlertChange,
     CycleOutput,
-    DetectorResult,
-    FloatArray,
     GcsPipeline,
     ObservedClaim,
-    TrackEstimate,
-    UnsafeRegion,
 )
 
 logger = logging.getLogger(__name__)
 
 COMPANIONS_ENDPOINT = "companions"
-_UPPER = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
 _EPS_S = 1e-9
-#: How a detector is named in the log (10,000 detector records in a 120 s, 16-aircraft run).
-_DETECTOR_NAMES = {d: d.name.lower() for d in m.RidsafeDetector}
-
-Cov6 = tuple[float, float, float, float, float, float]
 
 
 def peer_endpoint(peer: str) -> str:
     """The endpoint name of one companion peer: ``companions@<peer>``."""
     return f"{COMPANIONS_ENDPOINT}@{peer}"
-
-
-# --- frame conversions at the boundary (pure) ------------------------------------------------
-
-
-def ned_upper_triangle(cov_enu_m2: FloatArray) -> Cov6:
-    """(3, 3) ENU covariance -> NED upper triangle (xx, xy, xz, yy, yz, zz): T P T^T."""
-    p = frames.cov_enu_to_ned(cov_enu_m2)
-    xx, xy, xz, yy, yz, zz = (float(p[i, j]) for i, j in _UPPER)
-    return (xx, xy, xz, yy, yz, zz)
-
-
-def region_message(
-    origin: GeodeticOrigin, region: UnsafeRegion, now_s: float, validity_s: float, flags: int
-) -> m.UnsafeRegionMsg:
-    """The wire form of one unsafe region (see the module docstring)."""
-    east, north, up = (float(c) for c in region.center_enu_m)
-    lat, lon, alt = frames.enu_to_geodetic_point(origin, east, north, up)
-    v = frames.enu_to_ned(region.v_enu_m_s)
-    return m.UnsafeRegionMsg(
-        t_s=region.t_s,
-        valid_until_s=min(region.valid_until_s, now_s + validity_s),
-        center_lat_deg=lat,
-        center_lon_deg=lon,
-        center_alt_m=alt,
-        cov_ned_m2=ned_upper_triangle(region.cov_enu_m2),
-        v_ned_m_s=(float(v[0]), float(v[1]), float(v[2])),
-        chi2_threshold=region.chi2_threshold,
-        alpha=region.alpha,
-        track_id=region.track_id,
-        flags=flags,
-        uas_id=region.uas_id,
-    )
-
-
-def _region_is_finite(region: UnsafeRegion) -> bool:
-    arrays = (region.center_enu_m, region.cov_enu_m2, region.v_enu_m_s)
-    scalars = (region.chi2_threshold, region.alpha, region.valid_until_s, region.t_s)
-    return all(bool(np.isfinite(a).all()) for a in arrays) and all(map(math.isfinite, scalars))
 
 
 # --- state -----------------------------------------------------------------------------------
@@ -518,11 +472,11 @@ class Gcs:
                 self._raised[key] = (now_s, change)
             else:
                 self._raised.pop(key, None)
-            messages.append(_alert(now_s, change))
+            messages.append(alert_message(now_s, change))
         if now_s >= self._next_alert_repeat_s - _EPS_S:
             self._next_alert_repeat_s = now_s + self.config.alert_repeat_s
             repeats = [(t, c) for k, (t, c) in self._raised.items() if k not in changed]
-            messages.extend(_alert(t, c) for t, c in repeats)
+            messages.extend(alert_message(t, c) for t, c in repeats)
         self.counters.alerts_sent += len(messages)
         return messages
 
@@ -530,7 +484,7 @@ class Gcs:
         coasting = {t.track_id for t in output.tracks if not t.fix}
         messages: list[m.UnsafeRegionMsg] = []
         for region in output.regions:
-            if not _region_is_finite(region):
+            if not region_is_finite(region):
                 self.counters.invalid_regions += 1
                 message = f"non-finite region for {region.uas_id!r} not sent"
                 self._warn.warn(now_s, "region", message)
@@ -556,18 +510,18 @@ class Gcs:
     def _log_output(self, now_s: float, output: CycleOutput, sent: list[m.UnsafeRegionMsg]) -> None:
         for results in output.claim_results:
             if results:
-                self.sink.log(topics.DETECTOR_STATS, now_s, _verdicts_record(results))
+                self.sink.log(topics.DETECTOR_STATS, now_s, verdicts_record(results))
         if output.channel is not None:
             self.sink.log(topics.GCS_CHANNEL, now_s, dataclasses.asdict(output.channel))
         for change in output.alert_changes:
-            self.sink.log(topics.ALERTS, now_s, _alert_record(change))
+            self.sink.log(topics.ALERTS, now_s, alert_record(change))
         for track in output.tracks:
-            self.sink.log(topics.TRACKS, now_s, _track_record(track))
+            self.sink.log(topics.TRACKS, now_s, track_record(track))
         by_track = {(s.uas_id, s.track_id): s for s in sent if not s.flags & m.RegionFlags.DELETED}
         for region in output.regions:
             msg = by_track.get((region.uas_id, region.track_id))
             if msg is not None:
-                self.sink.log(topics.REGIONS, now_s, _region_record(region, msg))
+                self.sink.log(topics.REGIONS, now_s, region_record(region, msg))
 
     def _maybe_log_counters(self, sim_now: float) -> None:
         if self._next_counters_s is None:
@@ -584,68 +538,3 @@ class Gcs:
     def _broadcast(self, messages: list[m.Message]) -> None:
         live = [name for name, peer in self._peers.items() if peer.live]
         self.shell.broadcast(live, messages)
-
-
-# --- helpers ---------------------------------------------------------------------------------
-
-
-def _alert(t_s: float, change: AlertChange) -> m.SpoofAlert:
-    return m.SpoofAlert(
-        t_s=t_s,
-        statistic=float(change.statistic),
-        threshold=float(change.threshold),
-        detector=int(change.detector),
-        state=int(change.state),
-        uas_id=change.uas_id,
-    )
-
-
-def _verdicts_record(results: tuple[DetectorResult, ...]) -> dict[str, object]:
-    """The ``/gcs/detector_stats`` record of one claim: every detector's verdict on it."""
-    verdicts = {
-        _DETECTOR_NAMES[r.detector]: {
-            "statistic": float(r.statistic),
-            "threshold": float(r.threshold),
-            "decision": bool(r.decision),
-        }
-        for r in results
-    }
-    return {"uas_id": results[0].uas_id, "detectors": verdicts}
-
-
-def _alert_record(change: AlertChange) -> dict[str, object]:
-    return {
-        "uas_id": change.uas_id,
-        "detector": _DETECTOR_NAMES[change.detector],
-        "statistic": float(change.statistic),
-        "threshold": float(change.threshold),
-        "state": change.state.name.lower(),
-    }
-
-
-def _track_record(track: TrackEstimate) -> dict[str, object]:
-    return {
-        "uas_id": track.uas_id,
-        "track_id": track.track_id,
-        "p_enu_m": np.asarray(track.p_enu_m, dtype=np.float64).tolist(),
-        "cov_enu_m2": np.asarray(track.cov_enu_m2, dtype=np.float64).tolist(),
-        "v_enu_m_s": np.asarray(track.v_enu_m_s, dtype=np.float64).tolist(),
-        "mode_probabilities": np.asarray(track.mode_probabilities, dtype=np.float64).tolist(),
-        "fix": bool(track.fix),
-        "last_fix_s": float(track.last_fix_s),
-    }
-
-
-def _region_record(region: UnsafeRegion, sent: m.UnsafeRegionMsg) -> dict[str, object]:
-    return {
-        "uas_id": region.uas_id,
-        "track_id": region.track_id,
-        "center_enu_m": np.asarray(region.center_enu_m, dtype=np.float64).tolist(),
-        "cov_enu_m2": np.asarray(region.cov_enu_m2, dtype=np.float64).tolist(),
-        "v_enu_m_s": np.asarray(region.v_enu_m_s, dtype=np.float64).tolist(),
-        "chi2_threshold": float(region.chi2_threshold),
-        "alpha": float(region.alpha),
-        "valid_until_s": sent.valid_until_s,
-        "semi_axes_m": np.asarray(region.semi_axes_m, dtype=np.float64).tolist(),
-        "flags": sent.flags,
-    }

@@ -22,7 +22,8 @@ from ridsafe.common import messages as m
 from ridsafe.common.ellipsoid import inside
 from ridsafe.common.logsink import MemorySink
 from ridsafe.gcs.config import ClockSource, GcsConfig
-from ridsafe.gcs.gcs import Gcs, ned_upper_triangle, peer_endpoint
+from ridsafe.gcs.gcs import Gcs, peer_endpoint
+from ridsafe.gcs.outputs import ned_upper_triangle
 from ridsafe.gcs.pipeline import EstimationPipeline
 from ridsafe.gcs.pipeline_api import (
     AlertChange,
