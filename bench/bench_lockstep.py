@@ -4,6 +4,7 @@ the planners people fly (aware first) at 16 and 64 aircraft.
 
     python bench/bench_lockstep.py [--planners aware,trust-rid] [--aircraft 16,64]
                                    [--repeat 3] [--tick S] [--duration S] [--serial]
+                                   [--by-tick]
 
 Each repetition is a fresh Python process timing one ``run_lockstep`` call, as
 ``ridsafe run --mode lockstep`` makes it: building the cores (the numba kernels load from
@@ -20,7 +21,10 @@ spent its ticks (``lockstep_split.PhaseTimes``). At 16 + 1 the sim is the first 
 longer side on most ticks, but not on the GCS's heavy ones (a cycle, a batch of reports, the
 fleet's claims closing: 1-4 ms against a sim tick of 0.4-0.7 ms), where this process waits
 (``waiting_gcs``, 0.8 s of a 6.8 s run in a slow hour); ``waiting_companions`` is what the
-two halves of the companions differ by.
+two halves of the companions differ by. ``--by-tick`` adds this process's phases by the tick's
+place in its second (``PhaseTimes.by_tick``): at 64 + 1 the sim's heavy tick is the one that
+delivers the fleet's RID broadcasts, and ``waiting_gcs`` falls after the GCS cycle that
+follows the fleet's batch of reports.
 Targets (scale issue), 2-core development machine: 16 + 1 >= 25x, 64 + 1 >= 8x real time.
 """
 
@@ -61,6 +65,11 @@ def main() -> None:
     parser.add_argument("--tick", type=float, help="lockstep tick (s), default the config's")
     parser.add_argument("--repeat", type=int, default=3, help="fresh processes, one run each")
     parser.add_argument("--serial", action="store_true", help="every core in one process")
+    parser.add_argument(
+        "--by-tick",
+        action="store_true",
+        help="also print where in its second this process spends and waits (split runs)",
+    )
     parser.add_argument("--once", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--planner", help=argparse.SUPPRESS)  # one cell, for --once
     args = parser.parse_args()
@@ -101,6 +110,8 @@ def _cell(args: argparse.Namespace, planner: str, n_aircraft: int) -> str:
         )
         if run["phases"] is not None:
             print(f"{'':19s}{_phases_line(run['phases'])}", flush=True)
+        if args.by_tick and run["phases_by_tick"] is not None:
+            print(_by_tick_table(run["phases_by_tick"], run["tick_s"]), flush=True)
     walls = [run["wall_s"] for run in runs]
     median = statistics.median(walls)
     cpu = statistics.median(run["cpu_s"] for run in runs)
@@ -126,6 +137,18 @@ def _phases_line(phases: dict[str, dict[str, float]]) -> str:
         seconds = phases.get(process, {})
         parts.append(f"{label}: " + ", ".join(f"{k} {v:.2f} s" for k, v in seconds.items()))
     return "; ".join(parts)
+
+
+def _by_tick_table(by_tick: dict[str, dict[str, float]], tick_s: float) -> str:
+    """This process's phases (s over the run) by the tick's place in its second, one row per
+    phase: where the waits and the heavy ticks fall (JSON keys are strings)."""
+    ticks = sorted({int(k) for seconds in by_tick.values() for k in seconds})
+    head = "".join(f"{t * tick_s:6.2f}" for t in ticks)
+    lines = [f"{'':19s}{'phase / tick at x.':>20s}{head}"]
+    for phase, seconds in by_tick.items():
+        cells = "".join(f"{seconds.get(str(t), 0.0):6.2f}" for t in ticks)
+        lines.append(f"{'':19s}{phase:>20s}{cells}")
+    return "\n".join(lines)
 
 
 def _one_run(args: argparse.Namespace, planner: str, n_aircraft: int) -> dict[str, Any]:
@@ -157,6 +180,7 @@ def _one_run(args: argparse.Namespace, planner: str, n_aircraft: int) -> dict[st
         "gcs_compute_s": metrics["gcs_compute_s"],
         "planner_p99_ms": metrics["planner_decision_p99_ms"],
         "phases": result.phase_times_s,  # None in one process
+        "phases_by_tick": result.phase_times_by_tick_s,
     }
 
 

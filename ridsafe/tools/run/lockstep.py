@@ -137,6 +137,9 @@ class RunResult:
     #: A split run: where each process's ticks went (``lockstep_split.PhaseTimes``), by
     #: process ("run", "worker"), then phase; None for a run on one process.
     phase_times_s: dict[str, dict[str, float]] | None = None
+    #: A split run: this process's phases by the tick's place in its second
+    #: (``PhaseTimes.by_tick``); None for a run on one process.
+    phase_times_by_tick_s: dict[str, dict[int, float]] | None = None
 
 
 def run_lockstep(
@@ -221,7 +224,7 @@ def _run_split(
     finally:
         gc.unfreeze()
     phases = {"run": run.times.seconds, "worker": run.worker_times.seconds}
-    return RunResult(status, reason, wall, run.t_s, log_path, build_s, phases)
+    return RunResult(status, reason, wall, run.t_s, log_path, build_s, phases, run.times.by_tick)
 
 
 def _fly(

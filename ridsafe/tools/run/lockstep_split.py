@@ -110,11 +110,17 @@ class PhaseTimes:
     in no phase."""
 
     seconds: dict[str, float] = field(default_factory=dict)
+    #: The same by the tick's place in its second (``tick``, set by the stepper: 0 .. ticks
+    #: per second - 1): what happens when in a second of the run (this process only).
+    by_tick: dict[str, dict[int, float]] = field(default_factory=dict)
+    tick: int = 0
 
     def add(self, phase: str, started_s: float) -> float:
         """Count the time since ``started_s`` to ``phase``; returns now."""
         now_s = time.perf_counter()
         self.seconds[phase] = self.seconds.get(phase, 0.0) + now_s - started_s
+        ticks = self.by_tick.setdefault(phase, {})
+        ticks[self.tick] = ticks.get(self.tick, 0.0) + now_s - started_s
         return now_s
 
 
@@ -281,6 +287,7 @@ class SplitLockstep:
 
     def _step(self, now_s: float) -> None:
         times, started = self.times, time.perf_counter()
+        times.tick = round(now_s / self.tick_s) % max(1, round(1.0 / self.tick_s))
         sim_inbox, self._sim_inbox = self._sim_inbox, []
         to_companions: dict[str, Datagrams] = {name: [] for name in self._names}
         with self._buffer.lane(self._roles.sim):

@@ -66,6 +66,14 @@ def test_a_split_run_logs_what_a_serial_run_logs(tmp_path: Path) -> None:
     assert all(s > 0.0 for s in (*run.values(), *worker.values()))
     flight_s = results[True].wall_clock_s - results[True].build_s
     assert sum(run.values()) < flight_s and sum(worker.values()) < flight_s
+    # This process's phases by the tick's place in its second: the same seconds, spread over
+    # the 20 ticks of 50 ms (bench_lockstep.py --by-tick).
+    assert results[False].phase_times_by_tick_s is None
+    by_tick = results[True].phase_times_by_tick_s
+    assert by_tick is not None and set(by_tick) == set(run)
+    for phase, seconds in by_tick.items():
+        assert set(seconds) == set(range(20))
+        assert sum(seconds.values()) == pytest.approx(run[phase], rel=1e-9)
     assert len(serial) > 1000
     topics = {topic for topic, _, _ in serial}
     assert {"/gcs/cycle", "/companion/decisions", "/companion/observations"} <= topics
