@@ -76,8 +76,7 @@ __all__ = [
 #: How long this process waits for the worker's answer before calling it dead (s). A tick is
 #: milliseconds; the first tick of the GCS (its kernels warm) under a second.
 _ANSWER_TIMEOUT_S = 120.0
-#: Closing: the worker writes what is still pending (seconds of records at most) first.
-_CLOSE_TIMEOUT_S = 600.0
+_CLOSE_TIMEOUT_S = 600.0  # closing: the worker first writes what is pending (seconds' worth)
 _JOIN_TIMEOUT_S = 10.0
 #: Each process looks for the other's message this long before it sleeps on the pipe (the
 #: worker once it has no record left to write): the message often comes sooner than a
@@ -92,8 +91,6 @@ _EARLY_MAX_BYTES = 32_768
 _MAX_PENDING_RECORDS = 200_000
 
 Pickled = bytes  # pickle of (topic, t_s, record)
-
-
 Lane = str  # the core that logged a record ('' outside every core's step)
 Laned = tuple[Lane, Pickled]
 
@@ -102,18 +99,15 @@ Laned = tuple[Lane, Pickled]
 class PhaseTimes:
     """Where a process of a split run spent its ticks (s of wall clock, ``time.perf_counter``):
     by phase, filled in as it steps. This process: ``sim``, ``companions`` (its half),
-    ``sending``, ``waiting_gcs`` (after the sim, for the GCS's answer) and
-    ``waiting_companions`` (after its half, for the worker's); the worker: ``gcs``,
-    ``companions``, ``writing`` (the log, in the time it waits), ``idle``. Each tick has two
-    barriers (the sim beside the GCS, then the two halves of the companions): what one side
-    waits is the other side's longer phase. The rest (pickling the records, ordering them) is
-    in no phase."""
+    ``sending``, ``waiting_gcs`` (after the sim, for the GCS's answer) and ``waiting_companions``
+    (after its half, for the worker's); the worker: ``gcs``, ``companions``, ``writing`` (the
+    log, in the time it waits), ``idle``. Each tick has two barriers (the sim beside the GCS,
+    then the halves of the companions): what one side waits is the other side's longer phase.
+    The rest (pickling the records, ordering them) is in no phase."""
 
     seconds: dict[str, float] = field(default_factory=dict)
-    #: The same by the tick's place in its second (``tick``, set by the stepper: 0 .. ticks
-    #: per second - 1): what happens when in a second of the run (this process only).
-    by_tick: dict[str, dict[int, float]] = field(default_factory=dict)
-    tick: int = 0
+    by_tick: dict[str, dict[int, float]] = field(default_factory=dict)  # and by ``tick``:
+    tick: int = 0  # the tick's place in its second (this process's stepper sets it)
 
     def add(self, phase: str, started_s: float) -> float:
         """Count the time since ``started_s`` to ``phase``; returns now."""
