@@ -16,7 +16,9 @@ Modules, by what they hold:
 - ``fields``: domain messages <-> field-value dicts (what ``common.f3411`` encodes);
 - ``wire``: CRC, header, a payload's bytes (``encode_payload``) and its decoded view;
 - ``signing``: keys, the outgoing signature and the per-stream replay check;
-- ``link``: ``MavlinkLink``, ``Received``, ``LinkCounters``.
+- ``link``: ``MavlinkLink``, ``Received``, ``LinkCounters``; with ``columnar=True`` (the
+  GCS's) a sender's consecutive RIDSAFE_OBSERVATION packets are decoded together
+  (``observation_kernels``, compiled) into one ``messages.ObservationRows``.
 
 This package re-exports the names the apps use, so ``codec.MavlinkLink`` is the way in.
 """
