@@ -116,11 +116,16 @@ class Endpoint:
     def send(self, message: m.Message, component: int | None = None) -> None:
         """Queue ``message`` from the core's identity, or from ``component``'s. A message
         whose values do not fit its MAVLink fields is logged, counted and not sent: a value
-        that crept in from outside must not take the core down."""
+        that crept in from outside must not take the core down (a pack of reports is sent
+        report by report instead, so only the one that does not fit is lost)."""
         link = self.link if component is None else self.senders[component]
         try:
             self.outbox.append(link.pack(message))
         except _ENCODE_ERRORS as exc:
+            if type(message) is m.ObservationPack:  # its other reports still go, one by one
+                for observation in message.observations:
+                    self.send(observation, component)
+                return
             self.unencodable += 1
             count = self.unencodable
             level = logging.WARNING if count == 1 or count % 1000 == 0 else logging.DEBUG

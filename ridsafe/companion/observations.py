@@ -5,9 +5,9 @@ frame bytes, RSSI, receive time, all together from the radio on) and reads the m
 each (``RidFrameDecoder``). Every LOCATION updates the neighbour table and becomes an
 ``Observation`` (``make_observation``) with the RSSI of the frame it came in and the
 receiver's own position at the receive time; observations go to the GCS in batches, once per
-``observation_batch_s``. Every LOCATION heard is either reported exactly once or counted
-under the reason it could not be (no own position, no claimed position); frames that do not
-decode, or carry no LOCATION, are counted too.
+``observation_batch_s``, three to a message (RIDSAFE_OBSERVATION_PACK). Every LOCATION heard
+is either reported exactly once or counted under the reason it could not be (no own position,
+no claimed position); frames that do not decode, or carry no LOCATION, are counted too.
 """
 
 from __future__ import annotations
@@ -167,7 +167,8 @@ def batch_record(sysid: int, batch: Iterable[m.Observation]) -> dict[str, object
     return {"sysid": sysid, "items": items}
 
 
-SendObservation = Callable[[m.Observation], None]
+#: Sends a report message to the GCS (an ``ObservationPack``).
+SendObservation = Callable[[m.Message], None]
 
 
 class ObservationReporter:
@@ -232,8 +233,9 @@ class ObservationReporter:
             return
         if not gcs_seen:
             self.counters.sent_before_gcs_seen += len(batch)
-        for observation in batch:
-            send(observation)
+        per_pack = codec.OBSERVATIONS_PER_PACK
+        for i in range(0, len(batch), per_pack):
+            send(m.ObservationPack(tuple(batch[i : i + per_pack])))
         sink.log(topics.OBSERVATIONS, own.sim_time(now_s), batch_record(self.sysid, batch))
 
     def _locations(self, heard: HeardRidFrame) -> list[m.OdidLocation]:

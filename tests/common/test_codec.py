@@ -119,6 +119,36 @@ def test_observation_round_trip(
 
 @settings(max_examples=100, deadline=None)
 @given(
+    reports=st.lists(
+        st.tuples(times, st.tuples(lat, lon, alt_m), st.floats(-150, 30), uas_id),
+        min_size=1,
+        max_size=3,
+    )
+)
+def test_an_observation_pack_decodes_to_what_its_reports_decode_to_one_by_one(
+    reports: list[tuple[float, m.Vec3, float, str]],
+) -> None:
+    """RIDSAFE_OBSERVATION_PACK: the rows are each report's own round trip, in order."""
+    sent = [
+        m.Observation(t, *p, *p, 1799.5, rssi, None if k == 1 else 90.0, 5.0, -1.0, sid)
+        for k, (t, p, rssi, sid) in enumerate(reports)
+    ]
+    got = _round_trip(m.ObservationPack(tuple(sent)))
+    assert isinstance(got, m.ObservationRows)
+    assert got.observations() == [_round_trip(o) for o in sent]
+
+
+def test_an_observation_pack_of_none_or_four_is_refused_on_the_way_out() -> None:
+    report = m.Observation(
+        1.0, 36.1, -86.8, 200.0, 36.1, -86.8, 210.0, 1.0, -70.0, 0.0, 1.0, 0.0, "A"
+    )
+    for reports in ((), (report,) * 4):
+        with pytest.raises(WireError, match="observation pack"):
+            codec.to_mavlink(m.ObservationPack(reports))
+
+
+@settings(max_examples=100, deadline=None)
+@given(
     la=lat,
     lo=lon,
     cov=st.tuples(var, cross, cross, var, cross, var),  # xx xy xz yy yz zz

@@ -65,6 +65,21 @@ def _packet(link: codec.MavlinkLink, fields: tuple[object, ...]) -> bytes:
     return link.frame(Payload(_OBSERVATION.id, _CRC_EXTRA, data.rstrip(b"\x00") or data[:1]))
 
 
+_PACK = mav.MAVLink_ridsafe_observation_pack_message
+_PACK_STRUCT = struct.Struct("<3Q3i3i3f3i3i3f3f3f3H3H3hB60s")  # the uint8 ids as one item
+
+
+def _pack_packet(link: codec.MavlinkLink, rows: list[tuple[object, ...]], count: int) -> bytes:
+    """A RIDSAFE_OBSERVATION_PACK of ``rows`` (each RIDSAFE_OBSERVATION's wire values) that
+    says it holds ``count``."""
+    padded = rows + [(0,) * 12 + (b"",)] * (3 - len(rows))
+    *columns, ids = zip(*padded, strict=True)
+    id_bytes = b"".join(bytes(i)[:20].ljust(20, b"\x00") for i in ids)
+    data = _PACK_STRUCT.pack(*(v for column in columns for v in column), count, id_bytes)
+    extra = bytes([_PACK.crc_extra])
+    return link.frame(Payload(_PACK.id, extra, data.rstrip(b"\x00") or data[:1]))
+
+
 def _as_rows(received: list[codec.Received]) -> list[tuple[int, int, bool, m.Message]]:
     """Every message, rows expanded to the observations they hold."""
     out: list[tuple[int, int, bool, m.Message]] = []
@@ -93,7 +108,7 @@ def _same(a: object, b: object) -> bool:
 @given(
     packets=st.lists(
         st.tuples(
-            st.sampled_from(["plain", "raw", "heartbeat"]),
+            st.sampled_from(["plain", "raw", "heartbeat", "pack", "raw pack", "count"]),
             _payload_fields,
             st.sets(st.integers(0, 12), min_size=1, max_size=3),
             st.integers(1, 3),
@@ -106,7 +121,9 @@ def _same(a: object, b: object) -> bool:
 def test_a_columnar_link_keeps_drops_and_counts_as_one_that_decodes_one_by_one(
     packets: list[tuple[str, tuple[object, ...], set[int], int]], signed: bool
 ) -> None:
-    """``raw`` packets are a valid one with one to three fields replaced by any wire value."""
+    """``raw`` packets are a valid one with one to three fields replaced by any wire value;
+    ``pack``: a RIDSAFE_OBSERVATION_PACK of one to three valid reports, ``raw pack`` with the
+    first of them raw, ``count`` with a count of 0 to 4 whatever it holds."""
     signing = codec.SigningConfig(_KEY, 1000) if signed else None
     senders = {sysid: codec.MavlinkLink(sysid, 191, signing) for sysid in (1, 2, 3)}
     datagram = b""
@@ -116,9 +133,14 @@ def test_a_columnar_link_keeps_drops_and_counts_as_one_that_decodes_one_by_one(
             datagram += sender.pack(m.Heartbeat(18, 8, 0, 0, 4))
             continue
         values = _plain_fields(index)
-        if kind == "raw":
+        if kind in ("raw", "raw pack"):
             values = tuple(fields[k] if k in replaced else v for k, v in enumerate(values))
-        datagram += _packet(sender, values)
+        if kind in ("pack", "raw pack", "count"):
+            rows = [values] + [_plain_fields(index + 100 + j) for j in range(len(replaced) - 1)]
+            count = len(rows) if kind != "count" else int(fields[0]) % 5  # type: ignore[call-overload]
+            datagram += _pack_packet(sender, rows, count)
+        else:
+            datagram += _packet(sender, values)
     by_rows = codec.MavlinkLink(255, 190, signing and codec.SigningConfig(_KEY, 0), columnar=True)
     one_by_one = codec.MavlinkLink(255, 190, signing and codec.SigningConfig(_KEY, 0))
     got, expected = _as_rows(by_rows.feed(datagram)), _as_rows(one_by_one.feed(datagram))
@@ -164,6 +186,25 @@ def test_one_bad_row_sends_its_run_one_by_one_and_is_named() -> None:
     assert [type(r.message) for r in received] == [m.Observation, m.Observation]
     assert link.counters.accepted == 2 and link.counters.invalid_value == 1
     assert link.counters.invalid_fields == {"RIDSAFE_OBSERVATION.decode": 1}
+
+
+def test_a_pack_decodes_to_its_reports_in_order_and_a_bad_one_refuses_the_pack() -> None:
+    a = codec.MavlinkLink(4, 191)
+    reports = [_plain_fields(i) for i in range(5)]
+    bad = list(_plain_fields(9))
+    bad[3] = math.nan  # receiver altitude
+    datagram = _pack_packet(a, reports[:3], 3) + _pack_packet(a, reports[3:], 2)
+    datagram += _pack_packet(a, [reports[0], tuple(bad)], 2)
+    for columnar in (True, False):
+        link = codec.MavlinkLink(255, 190, columnar=columnar)
+        rows = [o for r in link.feed(datagram) for o in _rows_of(r.message)]
+        assert [o.rssi_dbm for o in rows] == [-70.0 - i for i in range(5)]
+        assert link.counters.accepted == 2 and link.counters.invalid_value == 1
+
+
+def _rows_of(message: m.Message) -> list[m.Observation]:
+    assert isinstance(message, m.ObservationRows)
+    return message.observations()
 
 
 def test_the_kernels_field_offsets_are_the_wire_layout() -> None:

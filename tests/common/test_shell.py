@@ -152,3 +152,20 @@ def test_a_shell_behind_a_real_socket_talks_to_pymavlink() -> None:
         assert [p.get_type() for p in parsed] == ["HEARTBEAT", "SYSTEM_TIME"]
         assert parsed[1].time_unix_usec == 1_700_000_001_000_000
         assert (parsed[0].get_srcSystem(), parsed[0].get_srcComponent()) == (3, 191)
+
+
+def test_a_pack_of_reports_that_does_not_fit_goes_report_by_report() -> None:
+    """Only the report that cannot be encoded is lost (and counted), not its pack-mates."""
+    fits = m.Observation(
+        1.0, 36.1, -86.8, 200.0, 36.1, -86.8, 210.0, 1.0, -70.0, 0.0, 1.0, 0.0, "A"
+    )
+    too_long_id = m.Observation(1.0, 36.1, -86.8, 200.0, 36.1, -86.8, 210.0, 1.0, -70.0, 0.0,
+                                1.0, 0.0, "X" * 21)  # fmt: skip
+    shell = _shell()
+    shell.send("gcs", m.ObservationPack((fits, too_long_id, fits)))
+    endpoint = shell.endpoints["gcs"]
+    assert endpoint.unencodable == 1 and len(endpoint.outbox) == 2
+    ((name, data),) = shell.flush()
+    received = MavlinkLink(255, 190).feed(data)
+    assert name == "gcs"
+    assert [r.message for r in received] == [fits, fits]

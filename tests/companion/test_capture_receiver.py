@@ -50,7 +50,8 @@ def _scenario() -> Scenario:
 
 
 def _observations(flight: Flight) -> list[m.Observation]:
-    return [r.message for r in flight.gcs_received(1) if isinstance(r.message, m.Observation)]
+    received = [r.message for r in flight.gcs_received(1)]
+    return [o for r in received if isinstance(r, m.ObservationRows) for o in r.observations()]
 
 
 def _mac(sender_id: bytes, macs: dict[bytes, str]) -> str:

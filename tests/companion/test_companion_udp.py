@@ -101,7 +101,7 @@ def test_two_companions_over_udp_arm_take_off_and_report_to_the_gcs(
             for data, _ in gcs.recv_all():
                 heard.extend(gcs_link.feed(data))
             altitudes = [c.own.gpi.relative_alt_m if c.own.gpi else 0.0 for c in companions]
-            observers = {r.src_system for r in heard if isinstance(r.message, m.Observation)}
+            observers = {r.src_system for r in heard if isinstance(r.message, m.ObservationRows)}
             if min(altitudes) > 10.0 and observers == {1, 2}:
                 break
             time.sleep(0.05)
@@ -113,7 +113,11 @@ def test_two_companions_over_udp_arm_take_off_and_report_to_the_gcs(
     truth = backend.truth()
     assert all(truth.armed[:2]), "both vehicles armed"
     assert min(truth.p_enu_m[:2, 2]) > 10.0, f"both above 10 m, got {truth.p_enu_m[:2, 2]}"
-    by_sender = {r.src_system: r.message for r in heard if isinstance(r.message, m.Observation)}
+    by_sender = {
+        r.src_system: r.message.observation(0)
+        for r in heard
+        if isinstance(r.message, m.ObservationRows)
+    }
     assert by_sender[1].uas_id == "RSAF800000002" and by_sender[2].uas_id == "RSAF800000001"
     for companion in companions:
         counters = companion.counters_snapshot()

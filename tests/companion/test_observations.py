@@ -54,11 +54,16 @@ def _own() -> OwnTelemetry:
 
 
 class _Sent:
+    """What the reporter sends: packs of at most three reports, unpacked."""
+
     def __init__(self) -> None:
         self.observations: list[m.Observation] = []
+        self.packs = 0
 
-    def __call__(self, observation: m.Observation) -> None:
-        self.observations.append(observation)
+    def __call__(self, message: m.Message) -> None:
+        assert isinstance(message, m.ObservationPack) and 1 <= len(message.observations) <= 3
+        self.observations.extend(message.observations)
+        self.packs += 1
 
 
 def _reporter(period_s: float = 0.25) -> ObservationReporter:

@@ -17,7 +17,7 @@ Modules, by what they hold:
 - ``wire``: CRC, header, a payload's bytes (``encode_payload``) and its decoded view;
 - ``signing``: keys, the outgoing signature and the per-stream replay check;
 - ``link``: ``MavlinkLink``, ``Received``, ``LinkCounters``; with ``columnar=True`` (the
-  GCS's) a sender's consecutive RIDSAFE_OBSERVATION packets are decoded together
+  GCS's) a sender's consecutive RIDSAFE_OBSERVATION(_PACK) packets are decoded together
   (``observation_kernels``, compiled) into one ``messages.ObservationRows``.
 
 This package re-exports the names the apps use, so ``codec.MavlinkLink`` is the way in.
@@ -26,6 +26,7 @@ This package re-exports the names the apps use, so ``codec.MavlinkLink`` is the 
 from ridsafe.common.codec.fields import message_from_fields, odid_fields
 from ridsafe.common.codec.link import LinkCounters, MavlinkLink, Received, warm_up_columnar
 from ridsafe.common.codec.registry import from_mavlink, to_mavlink
+from ridsafe.common.codec.ridsafe_messages import OBSERVATIONS_PER_PACK
 from ridsafe.common.codec.signing import (
     SIGNING_EPOCH_UNIX_S,
     ReplayWindow,
@@ -46,6 +47,7 @@ from ridsafe.common.codec.wire import Payload, encode_payload, x25_crc
 
 __all__ = [
     "DEG_E7",
+    "OBSERVATIONS_PER_PACK",
     "ODID_ID_LEN",
     "ODID_UNKNOWN_ALT_M",
     "ODID_UNKNOWN_DIRECTION_CDEG",

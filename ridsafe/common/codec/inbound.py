@@ -175,10 +175,15 @@ def _region(message: m.UnsafeRegionMsg) -> str | None:
     return None
 
 
+def _rows(message: m.ObservationRows) -> str | None:
+    return None if rows_valid(message) else "values"
+
+
 _SPECIAL: dict[type, Callable[[m.Message], str | None]] = {
     m.CommandLong: _command,  # type: ignore[dict-item]
     p.CommandInt: _command,  # type: ignore[dict-item]
     m.UnsafeRegionMsg: _region,  # type: ignore[dict-item]
+    m.ObservationRows: _rows,  # type: ignore[dict-item]
 }
 
 

@@ -104,9 +104,10 @@ class MavlinkLink:
         """``replay``: the anti-replay state to check against; links of one core that share
         a key share one (``ReplayWindow``), so a stream replayed through another socket is
         still seen as old. Default: this link's own. ``columnar``: consecutive messages of a
-        kind with a columnar decoding (``wire.Layout.decode_rows``: RIDSAFE_OBSERVATION)
-        from one sender in one ``feed`` come as one ``Received`` of their rows
-        (``messages.ObservationRows``), decoded together; each still counts as accepted."""
+        kind with a columnar decoding (``wire.Layout.decode_rows``: RIDSAFE_OBSERVATION and
+        RIDSAFE_OBSERVATION_PACK) from one sender in one ``feed`` come as one ``Received`` of
+        their rows (``messages.ObservationRows``), decoded together; each message still counts
+        as accepted."""
         self._columnar = columnar
         self._system, self._component, self._seq = src_system, src_component, 0
         self._incompat_flags = 0 if signing is None else IFLAG_SIGNED
@@ -432,10 +433,13 @@ class MavlinkLink:
 
 def warm_up_columnar() -> m.ObservationRows:
     """Load (or compile) the kernels of a columnar link's decoding before a run needs them:
-    two reports through a real link; returns their rows."""
+    two reports through a real link, alone and in a pack; returns their rows."""
     sender, receiver = MavlinkLink(1, 1), MavlinkLink(2, 1, columnar=True)
     report = m.Observation(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -70.0, None, None, None, "W")
-    (received,) = receiver.feed(sender.pack(report) + sender.pack(report))
-    if not isinstance(received.message, m.ObservationRows):
-        raise AssertionError(f"the warm-up's reports came as {received.message!r}")
-    return received.message
+    alone = sender.pack(report) + sender.pack(report)
+    packed = sender.pack(m.ObservationPack((report, report)))
+    rows = [r.message for r in receiver.feed(alone + packed)]
+    singles = rows[0]
+    if not isinstance(singles, m.ObservationRows) or [type(r) for r in rows] != [type(singles)] * 2:
+        raise AssertionError(f"the warm-up's reports came as {rows!r}")
+    return singles

@@ -1,10 +1,12 @@
-"""RIDSAFE_OBSERVATION payloads decoded many at a time, compiled (``ridsafe_messages.
-observation_rows``): a GCS takes some 4,000 a second at 64 aircraft.
+"""RIDSAFE_OBSERVATION and RIDSAFE_OBSERVATION_PACK payloads decoded many at a time, compiled
+(``ridsafe_messages.observation_rows``, ``observation_pack_rows``): a GCS takes some 4,000
+reports a second at 64 aircraft.
 
-The payloads come joined, each zero-padded to ``RECORD_STRIDE`` bytes so that every field
-sits at an offset its size divides: the kernel reads them through typed views of the one
-buffer. The offsets are the message's wire layout (``ridsafe_messages`` checks them against
-the dialect at import); each value is converted exactly as ``_observation_from`` converts it.
+The payloads come joined, each zero-padded to its message's stride (``RECORD_STRIDE``,
+``PACK_STRIDE``) so that every field sits at an offset its size divides: the kernels read
+them through typed views of the one buffer. The offsets are the messages' wire layouts
+(``ridsafe_messages`` checks them against the dialect at import); each value is converted
+exactly as ``_observation_from`` converts it (``_convert``, shared by both).
 """
 
 from __future__ import annotations
@@ -12,11 +14,11 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ridsafe.common.jit import jit
+from ridsafe.common.jit import jit, jit_inline
 
-#: A payload's 66 bytes padded to a multiple of 8.
+#: A RIDSAFE_OBSERVATION payload's 66 bytes padded to a multiple of 8.
 RECORD_STRIDE = 72
-#: Byte offsets of the fields in a payload (the struct ``<QiifiifffHHh20s``).
+#: Byte offsets of its fields (the struct ``<QiifiifffHHh20s``).
 OFFSETS = {
     "time_usec": 0,
     "rx_lat": 8,
@@ -32,50 +34,113 @@ OFFSETS = {
     "claimed_speed_vertical": 44,
     "uas_id": 46,
 }
+#: A RIDSAFE_OBSERVATION_PACK payload's 199 bytes padded to a multiple of 8.
+PACK_STRIDE = 200
+#: Reports one pack carries at most: each field is an array of this many.
+PACK_SIZE = 3
+#: Byte offsets of its fields (the struct ``<3Q3i3i3f3i3i3f3f3f3H3H3hB60B``): the first
+#: element of each array; element k lies k x the element's size further.
+PACK_OFFSETS = {
+    "time_usec": 0,
+    "rx_lat": 24,
+    "rx_lon": 36,
+    "rx_alt": 48,
+    "claimed_lat": 60,
+    "claimed_lon": 72,
+    "claimed_alt": 84,
+    "rid_timestamp": 96,
+    "rssi_dbm": 108,
+    "claimed_direction": 120,
+    "claimed_speed_horizontal": 126,
+    "claimed_speed_vertical": 132,
+    "count": 138,
+    "uas_id": 139,
+}
 _UNKNOWN_DIRECTION_ABOVE = 35999  # cdeg; ``_observation_from``'s None
 _UNKNOWN_SPEED_H_CMS = 25500
 _UNKNOWN_SPEED_V_CMS = 6300
 
 
+@jit_inline
+def _convert(
+    out: NDArray[np.float64],
+    r: int,
+    time_usec: np.uint64,
+    lats_lons: tuple[np.int32, np.int32, np.int32, np.int32],
+    floats: tuple[np.float32, np.float32, np.float32, np.float32],
+    speeds: tuple[np.int64, np.int64, np.int64],
+) -> bool:
+    """Row ``r`` of ``out`` from one report's wire values (``floats``: receiver altitude,
+    claimed altitude, RID timestamp, RSSI; ``speeds``: course, ground and vertical speed);
+    False when ``_observation_from`` refuses them (a
+    latitude or longitude out of range, a non-finite float)."""
+    rx_lat, rx_lon, claimed_lat, claimed_lon = lats_lons
+    rx_alt, claimed_alt, rid_timestamp, rssi = floats
+    direction, speed_h, speed_v = speeds
+    out[r, 0] = time_usec / 1e6
+    out[r, 1] = rx_lat / 1e7
+    out[r, 2] = rx_lon / 1e7
+    out[r, 3] = rx_alt
+    out[r, 4] = claimed_lat / 1e7
+    out[r, 5] = claimed_lon / 1e7
+    out[r, 6] = claimed_alt
+    out[r, 7] = rid_timestamp
+    out[r, 8] = rssi
+    out[r, 9] = np.nan if direction > _UNKNOWN_DIRECTION_ABOVE else direction / 100
+    out[r, 10] = np.nan if speed_h == _UNKNOWN_SPEED_H_CMS else speed_h / 100.0
+    out[r, 11] = np.nan if speed_v == _UNKNOWN_SPEED_V_CMS else speed_v / 100.0
+    return bool(
+        abs(out[r, 1]) <= 90.0
+        and abs(out[r, 2]) <= 180.0
+        and abs(out[r, 4]) <= 90.0
+        and abs(out[r, 5]) <= 180.0
+        and np.isfinite(out[r, 3])
+        and np.isfinite(out[r, 6])
+        and np.isfinite(out[r, 7])
+        and np.isfinite(out[r, 8])
+    )
+
+
 @jit
 def decode_observations(buf: NDArray[np.uint8], out: NDArray[np.float64]) -> bool:
-    """Fill ``out`` (one row per payload, ``messages.OBSERVATION_COLUMNS``) from ``buf``;
-    False when a payload holds a latitude or longitude out of range or a non-finite float
-    (``_observation_from`` refuses it)."""
-    u64 = buf.view(np.uint64)
-    i32 = buf.view(np.int32)
-    f32 = buf.view(np.float32)
-    u16 = buf.view(np.uint16)
-    i16 = buf.view(np.int16)
+    """Fill ``out`` (one row per RIDSAFE_OBSERVATION payload, ``messages.
+    OBSERVATION_COLUMNS``) from ``buf``; False when a payload is one ``_observation_from``
+    refuses."""
+    u64, i32, f32 = buf.view(np.uint64), buf.view(np.int32), buf.view(np.float32)
+    u16, i16 = buf.view(np.uint16), buf.view(np.int16)
     ok = True
     for r in range(out.shape[0]):
         base = r * RECORD_STRIDE
-        w4 = base // 4
-        w2 = base // 2
-        out[r, 0] = u64[base // 8] / 1e6
-        out[r, 1] = i32[w4 + 2] / 1e7
-        out[r, 2] = i32[w4 + 3] / 1e7
-        out[r, 3] = f32[w4 + 4]
-        out[r, 4] = i32[w4 + 5] / 1e7
-        out[r, 5] = i32[w4 + 6] / 1e7
-        out[r, 6] = f32[w4 + 7]
-        out[r, 7] = f32[w4 + 8]
-        out[r, 8] = f32[w4 + 9]
-        direction = np.int64(u16[w2 + 20])
-        out[r, 9] = np.nan if direction > _UNKNOWN_DIRECTION_ABOVE else direction / 100
-        speed_h = np.int64(u16[w2 + 21])
-        out[r, 10] = np.nan if speed_h == _UNKNOWN_SPEED_H_CMS else speed_h / 100.0
-        speed_v = np.int64(i16[w2 + 22])
-        out[r, 11] = np.nan if speed_v == _UNKNOWN_SPEED_V_CMS else speed_v / 100.0
-        if not (
-            abs(out[r, 1]) <= 90.0
-            and abs(out[r, 2]) <= 180.0
-            and abs(out[r, 4]) <= 90.0
-            and abs(out[r, 5]) <= 180.0
-            and np.isfinite(out[r, 3])
-            and np.isfinite(out[r, 6])
-            and np.isfinite(out[r, 7])
-            and np.isfinite(out[r, 8])
-        ):
+        w4, w2 = base // 4, base // 2
+        lats_lons = (i32[w4 + 2], i32[w4 + 3], i32[w4 + 5], i32[w4 + 6])
+        floats = (f32[w4 + 4], f32[w4 + 7], f32[w4 + 8], f32[w4 + 9])
+        speeds = (np.int64(u16[w2 + 20]), np.int64(u16[w2 + 21]), np.int64(i16[w2 + 22]))
+        if not _convert(out, r, u64[base // 8], lats_lons, floats, speeds):
             ok = False
+    return ok
+
+
+@jit
+def decode_observation_packs(
+    buf: NDArray[np.uint8], counts: NDArray[np.int64], out: NDArray[np.float64]
+) -> bool:
+    """Fill ``out`` (the first ``counts[p]`` reports of each RIDSAFE_OBSERVATION_PACK payload
+    p, in order) from ``buf``; False when a report is one ``_observation_from`` refuses."""
+    u64, i32, f32 = buf.view(np.uint64), buf.view(np.int32), buf.view(np.float32)
+    u16, i16 = buf.view(np.uint16), buf.view(np.int16)
+    ok, r = True, 0
+    for p in range(counts.shape[0]):
+        base = p * PACK_STRIDE
+        w4, w2 = base // 4, base // 2
+        for k in range(counts[p]):
+            lats_lons = (i32[w4 + 6 + k], i32[w4 + 9 + k], i32[w4 + 15 + k], i32[w4 + 18 + k])
+            floats = (f32[w4 + 12 + k], f32[w4 + 21 + k], f32[w4 + 24 + k], f32[w4 + 27 + k])
+            speeds = (
+                np.int64(u16[w2 + 60 + k]),
+                np.int64(u16[w2 + 63 + k]),
+                np.int64(i16[w2 + 66 + k]),
+            )
+            if not _convert(out, r, u64[base // 8 + k], lats_lons, floats, speeds):
+                ok = False
+            r += 1
     return ok

@@ -10,12 +10,15 @@ from __future__ import annotations
 import re
 import struct
 from collections.abc import Sequence
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ridsafe.common import messages as m
 from ridsafe.common.codec import observation_kernels
+from ridsafe.common.codec.inbound import first_invalid_field
 from ridsafe.common.codec.units import (
     DEG_E7,
     ODID_ID_LEN,
@@ -118,27 +121,33 @@ def _observation_from(raw: Any) -> m.Observation:
     )
 
 
-def _check_record_offsets(cls: Any) -> None:
-    """The compiled decoding's field offsets are the message's wire layout (raises if not)."""
+def _check_record_offsets(cls: Any, offsets: dict[str, int], stride: int) -> None:
+    """A compiled decoding's field offsets are the message's wire layout (raises if not)."""
     offset = 0
     for name, (count, code) in zip(
         cls.ordered_fieldnames,
         re.findall(r"(\d*)([a-zA-Z?])", cls.unpacker.format[1:]),
         strict=True,
     ):
-        if observation_kernels.OFFSETS[name] != offset:
+        if offsets[name] != offset:
             raise AssertionError(
                 f"{cls.msgname}.{name} at byte {offset}, the kernel reads it elsewhere"
             )
         offset += struct.calcsize(f"<{count}{code}")
-    if offset > observation_kernels.RECORD_STRIDE:
+    if offset > stride:
         raise AssertionError(f"{cls.msgname}: {offset} bytes, more than the kernel's stride")
 
 
-_check_record_offsets(mav.MAVLink_ridsafe_observation_message)
-_OBSERVATION_SIZE = mav.MAVLink_ridsafe_observation_message.unpacker.size
+_OBSERVATION = mav.MAVLink_ridsafe_observation_message
+_PACK = mav.MAVLink_ridsafe_observation_pack_message
+_check_record_offsets(_OBSERVATION, observation_kernels.OFFSETS, observation_kernels.RECORD_STRIDE)
+_check_record_offsets(_PACK, observation_kernels.PACK_OFFSETS, observation_kernels.PACK_STRIDE)
 _ID_OFFSET = observation_kernels.OFFSETS["uas_id"]
-#: Claimed ids as sent (NUL padding dropped or not) -> their text, for ``observation_rows``.
+_PACK_COUNT = observation_kernels.PACK_OFFSETS["count"]
+_PACK_IDS = observation_kernels.PACK_OFFSETS["uas_id"]
+#: Reports one RIDSAFE_OBSERVATION_PACK carries at most.
+OBSERVATIONS_PER_PACK = observation_kernels.PACK_SIZE
+#: Claimed ids as sent (NUL padding dropped or not) -> their text, for the rows' decodings.
 _ID_TEXT: dict[bytes, str] = {}
 _ID_TEXT_SIZE = 4096
 
@@ -148,15 +157,45 @@ def observation_rows(payloads: Sequence[bytes]) -> m.ObservationRows | None:
     each row what ``_observation_from`` makes of its payload; None when any payload is one
     ``_observation_from`` refuses (a latitude or longitude out of range, a non-finite
     value): the caller then decodes them one by one, which says which and why."""
-    size, stride = _OBSERVATION_SIZE, observation_kernels.RECORD_STRIDE
-    buf = np.frombuffer(
-        bytearray(b"".join(p[:size].ljust(stride, b"\x00") for p in payloads)), np.uint8
-    )
+    size = _OBSERVATION.unpacker.size
     values = np.empty((len(payloads), len(m.OBSERVATION_COLUMNS)))
-    if not observation_kernels.decode_observations(buf, values):
+    if not observation_kernels.decode_observations(
+        _joined(payloads, size, observation_kernels.RECORD_STRIDE), values
+    ):
         return None
     values.setflags(write=False)
     return m.ObservationRows(values, tuple(_id_text(p[_ID_OFFSET:size]) for p in payloads))
+
+
+def observation_pack_rows(payloads: Sequence[bytes]) -> m.ObservationRows | None:
+    """RIDSAFE_OBSERVATION_PACK payloads decoded together, their reports in order, each row
+    what ``_observation_pack_from`` makes of it; None when a pack is one it refuses (a count
+    outside 1-3, a report ``_observation_from`` refuses)."""
+    counts = [p[_PACK_COUNT] if len(p) > _PACK_COUNT else 0 for p in payloads]
+    if not all(1 <= count <= OBSERVATIONS_PER_PACK for count in counts):
+        return None
+    size = _PACK.unpacker.size
+    values = np.empty((sum(counts), len(m.OBSERVATION_COLUMNS)))
+    if not observation_kernels.decode_observation_packs(
+        _joined(payloads, size, observation_kernels.PACK_STRIDE),
+        np.array(counts, dtype=np.int64),
+        values,
+    ):
+        return None
+    values.setflags(write=False)
+    ids = tuple(
+        _id_text(p[_PACK_IDS + 20 * k : _PACK_IDS + 20 * (k + 1)])
+        for p, count in zip(payloads, counts, strict=True)
+        for k in range(count)
+    )
+    return m.ObservationRows(values, ids)
+
+
+def _joined(payloads: Sequence[bytes], size: int, stride: int) -> NDArray[np.uint8]:
+    """The payloads (trailing zeros restored) one after another, each padded to ``stride``."""
+    return np.frombuffer(
+        bytearray(b"".join(p[:size].ljust(stride, b"\x00") for p in payloads)), np.uint8
+    )
 
 
 def _id_text(sent: bytes) -> str:
@@ -166,6 +205,41 @@ def _id_text(sent: bytes) -> str:
             _ID_TEXT.clear()
         known = _ID_TEXT[sent] = text(sent)
     return known
+
+
+#: An unused entry of a pack: every field zero, no id.
+_UNUSED_ROW = (0,) * 12 + (b"",)
+
+
+def _observation_pack_to(msg: m.ObservationPack) -> Wire:
+    """The pack's reports as RIDSAFE_OBSERVATION encodes each (``_observation_to``), field by
+    field into the arrays; unused entries zero."""
+    n = len(msg.observations)
+    if not 1 <= n <= OBSERVATIONS_PER_PACK:
+        raise WireError(f"an observation pack holds 1 to {OBSERVATIONS_PER_PACK}, not {n}")
+    rows = [_observation_to(o).args for o in msg.observations]
+    rows += [_UNUSED_ROW] * (OBSERVATIONS_PER_PACK - n)
+    *columns, ids = zip(*rows, strict=True)  # per field, its three values
+    return wire(_PACK, *columns, n, b"".join(uas.ljust(ODID_ID_LEN, b"\x00") for uas in ids))
+
+
+def _observation_pack_from(raw: Any) -> m.ObservationRows:
+    """Each report of the pack as ``_observation_from`` decodes it, held to the edge's rules
+    (``inbound.first_invalid_field``): one report that breaks them refuses the whole pack."""
+    count = raw.count
+    if not 1 <= count <= OBSERVATIONS_PER_PACK:
+        raise WireError(f"RIDSAFE_OBSERVATION_PACK: count {count}")
+    ids = bytes(raw.uas_id)
+    reports = []
+    for k in range(count):
+        fields = {name: getattr(raw, name)[k] for name in _PACK.fieldnames[:-2]}
+        fields["uas_id"] = ids[ODID_ID_LEN * k : ODID_ID_LEN * (k + 1)]
+        report = _observation_from(SimpleNamespace(**fields))
+        bad_field = first_invalid_field(report)
+        if bad_field is not None:
+            raise WireError(f"RIDSAFE_OBSERVATION_PACK: report {k}: {bad_field} out of range")
+        reports.append(report)
+    return m.ObservationRows.of(reports)
 
 
 def _region_to(msg: m.UnsafeRegionMsg) -> Wire:
@@ -250,6 +324,11 @@ def _done_from(raw: Any) -> m.LockstepDone:
 CODECS: CodecTable = {
     m.RidFrameReport: ("RIDSAFE_RID_FRAME", _rid_frame_to, _rid_frame_from),
     m.Observation: ("RIDSAFE_OBSERVATION", _observation_to, _observation_from),
+    m.ObservationPack: (
+        "RIDSAFE_OBSERVATION_PACK",
+        _observation_pack_to,
+        _observation_pack_from,
+    ),
     m.UnsafeRegionMsg: ("RIDSAFE_UNSAFE_REGION", _region_to, _region_from),
     m.SpoofAlert: ("RIDSAFE_SPOOF_ALERT", _alert_to, _alert_from),
     m.LockstepTick: ("RIDSAFE_LOCKSTEP_TICK", _tick_to, _tick_from),
@@ -257,4 +336,7 @@ CODECS: CodecTable = {
 }
 
 #: Messages with a columnar decoding (``MavlinkLink(columnar=True)``), by name.
-ROW_DECODERS = {"RIDSAFE_OBSERVATION": observation_rows}
+ROW_DECODERS = {
+    "RIDSAFE_OBSERVATION": observation_rows,
+    "RIDSAFE_OBSERVATION_PACK": observation_pack_rows,
+}

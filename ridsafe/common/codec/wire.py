@@ -198,7 +198,7 @@ class Layout:
 #: ``registry.wire_struct``) rather than a tuple of ints: their from-MAVLink functions read
 #: those fields with ``bytes(...)`` / slices, which give the same result for either. A RID
 #: frame report is 250 such bytes, and every aircraft hears ~20 per second.
-BYTES_VIEW_MESSAGES = frozenset({"RIDSAFE_RID_FRAME"})
+BYTES_VIEW_MESSAGES = frozenset({"RIDSAFE_RID_FRAME", "RIDSAFE_OBSERVATION_PACK"})
 
 #: Messages whose payload is, by what it carries, almost never received twice: a measurement
 #: with its own time or a per-receiver signal strength (``link.DECODED_MEMO_SIZE``'s memo
@@ -207,6 +207,7 @@ UNIQUE_PAYLOAD_MESSAGES = frozenset(
     {
         "RIDSAFE_RID_FRAME",  # the RSSI of one receiver
         "RIDSAFE_OBSERVATION",  # one receiver's report with its receive time
+        "RIDSAFE_OBSERVATION_PACK",  # three of them
         "GLOBAL_POSITION_INT",  # time_boot_ms and the position of one vehicle
         "LOCAL_POSITION_NED",
         "ATTITUDE",

@@ -6382,6 +6382,7 @@ MAVLINK_MSG_ID_RIDSAFE_SPOOF_ALERT = 61003
 MAVLINK_MSG_ID_RIDSAFE_LOCKSTEP_TICK = 61004
 MAVLINK_MSG_ID_RIDSAFE_LOCKSTEP_DONE = 61005
 MAVLINK_MSG_ID_RIDSAFE_RID_FRAME = 61006
+MAVLINK_MSG_ID_RIDSAFE_OBSERVATION_PACK = 61007
 MAVLINK_MSG_ID_SYS_STATUS = 1
 MAVLINK_MSG_ID_SYSTEM_TIME = 2
 MAVLINK_MSG_ID_PING = 4
@@ -6867,6 +6868,61 @@ class MAVLink_ridsafe_rid_frame_message(MAVLink_message):
 # Define name on the class for backwards compatibility (it is now msgname).
 # Done with setattr to hide the class variable from mypy.
 setattr(MAVLink_ridsafe_rid_frame_message, "name", mavlink_msg_deprecated_name_property())
+
+
+class MAVLink_ridsafe_observation_pack_message(MAVLink_message):
+    """
+    Up to three RIDSAFE_OBSERVATION reports of one receiver in one
+    message (its companion's batch, three at a time): the same fields
+    and units, each an array whose first count entries are used (the
+    rest zero). One header, CRC and signature for three reports: 199
+    bytes of payload against 3 x 66.
+    """
+
+    id = MAVLINK_MSG_ID_RIDSAFE_OBSERVATION_PACK
+    msgname = "RIDSAFE_OBSERVATION_PACK"
+    fieldnames = ["time_usec", "rx_lat", "rx_lon", "rx_alt", "claimed_lat", "claimed_lon", "claimed_alt", "rid_timestamp", "rssi_dbm", "claimed_direction", "claimed_speed_horizontal", "claimed_speed_vertical", "count", "uas_id"]
+    ordered_fieldnames = ["time_usec", "rx_lat", "rx_lon", "rx_alt", "claimed_lat", "claimed_lon", "claimed_alt", "rid_timestamp", "rssi_dbm", "claimed_direction", "claimed_speed_horizontal", "claimed_speed_vertical", "count", "uas_id"]
+    fieldtypes = ["uint64_t", "int32_t", "int32_t", "float", "int32_t", "int32_t", "float", "float", "float", "uint16_t", "uint16_t", "int16_t", "uint8_t", "uint8_t"]
+    fielddisplays_by_name: Dict[str, str] = {}
+    fieldenums_by_name: Dict[str, str] = {}
+    fieldunits_by_name: Dict[str, str] = {"time_usec": "us", "rx_lat": "degE7", "rx_lon": "degE7", "rx_alt": "m", "claimed_lat": "degE7", "claimed_lon": "degE7", "claimed_alt": "m", "rid_timestamp": "s", "rssi_dbm": "dBm", "claimed_direction": "cdeg", "claimed_speed_horizontal": "cm/s", "claimed_speed_vertical": "cm/s"}
+    native_format = bytearray(b"<QiifiifffHHhBB")
+    orders = [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13]
+    lengths = [3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 1, 60]
+    array_lengths = [3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 0, 60]
+    crc_extra = 224
+    unpacker = struct.Struct("<3Q3i3i3f3i3i3f3f3f3H3H3hB60B")
+    instance_field = None
+    instance_offset = -1
+
+    def __init__(self, time_usec: Sequence[int], rx_lat: Sequence[int], rx_lon: Sequence[int], rx_alt: Sequence[float], claimed_lat: Sequence[int], claimed_lon: Sequence[int], claimed_alt: Sequence[float], rid_timestamp: Sequence[float], rssi_dbm: Sequence[float], claimed_direction: Sequence[int], claimed_speed_horizontal: Sequence[int], claimed_speed_vertical: Sequence[int], count: int, uas_id: Sequence[int]):
+        MAVLink_message.__init__(self, MAVLink_ridsafe_observation_pack_message.id, MAVLink_ridsafe_observation_pack_message.msgname)
+        self._fieldnames = MAVLink_ridsafe_observation_pack_message.fieldnames
+        self._instance_field = MAVLink_ridsafe_observation_pack_message.instance_field
+        self._instance_offset = MAVLink_ridsafe_observation_pack_message.instance_offset
+        self.time_usec = time_usec
+        self.rx_lat = rx_lat
+        self.rx_lon = rx_lon
+        self.rx_alt = rx_alt
+        self.claimed_lat = claimed_lat
+        self.claimed_lon = claimed_lon
+        self.claimed_alt = claimed_alt
+        self.rid_timestamp = rid_timestamp
+        self.rssi_dbm = rssi_dbm
+        self.claimed_direction = claimed_direction
+        self.claimed_speed_horizontal = claimed_speed_horizontal
+        self.claimed_speed_vertical = claimed_speed_vertical
+        self.count = count
+        self.uas_id = uas_id
+
+    def pack(self, mav: "MAVLink", force_mavlink1: bool = False) -> bytes:
+        return self._pack(mav, self.crc_extra, self.unpacker.pack(self.time_usec[0], self.time_usec[1], self.time_usec[2], self.rx_lat[0], self.rx_lat[1], self.rx_lat[2], self.rx_lon[0], self.rx_lon[1], self.rx_lon[2], self.rx_alt[0], self.rx_alt[1], self.rx_alt[2], self.claimed_lat[0], self.claimed_lat[1], self.claimed_lat[2], self.claimed_lon[0], self.claimed_lon[1], self.claimed_lon[2], self.claimed_alt[0], self.claimed_alt[1], self.claimed_alt[2], self.rid_timestamp[0], self.rid_timestamp[1], self.rid_timestamp[2], self.rssi_dbm[0], self.rssi_dbm[1], self.rssi_dbm[2], self.claimed_direction[0], self.claimed_direction[1], self.claimed_direction[2], self.claimed_speed_horizontal[0], self.claimed_speed_horizontal[1], self.claimed_speed_horizontal[2], self.claimed_speed_vertical[0], self.claimed_speed_vertical[1], self.claimed_speed_vertical[2], self.count, self.uas_id[0], self.uas_id[1], self.uas_id[2], self.uas_id[3], self.uas_id[4], self.uas_id[5], self.uas_id[6], self.uas_id[7], self.uas_id[8], self.uas_id[9], self.uas_id[10], self.uas_id[11], self.uas_id[12], self.uas_id[13], self.uas_id[14], self.uas_id[15], self.uas_id[16], self.uas_id[17], self.uas_id[18], self.uas_id[19], self.uas_id[20], self.uas_id[21], self.uas_id[22], self.uas_id[23], self.uas_id[24], self.uas_id[25], self.uas_id[26], self.uas_id[27], self.uas_id[28], self.uas_id[29], self.uas_id[30], self.uas_id[31], self.uas_id[32], self.uas_id[33], self.uas_id[34], self.uas_id[35], self.uas_id[36], self.uas_id[37], self.uas_id[38], self.uas_id[39], self.uas_id[40], self.uas_id[41], self.uas_id[42], self.uas_id[43], self.uas_id[44], self.uas_id[45], self.uas_id[46], self.uas_id[47], self.uas_id[48], self.uas_id[49], self.uas_id[50], self.uas_id[51], self.uas_id[52], self.uas_id[53], self.uas_id[54], self.uas_id[55], self.uas_id[56], self.uas_id[57], self.uas_id[58], self.uas_id[59]), force_mavlink1=force_mavlink1)
+
+
+# Define name on the class for backwards compatibility (it is now msgname).
+# Done with setattr to hide the class variable from mypy.
+setattr(MAVLink_ridsafe_observation_pack_message, "name", mavlink_msg_deprecated_name_property())
 
 
 class MAVLink_sys_status_message(MAVLink_message):
@@ -16948,6 +17004,7 @@ mavlink_map: Dict[int, Type[MAVLink_message]] = {
     MAVLINK_MSG_ID_RIDSAFE_LOCKSTEP_TICK: MAVLink_ridsafe_lockstep_tick_message,
     MAVLINK_MSG_ID_RIDSAFE_LOCKSTEP_DONE: MAVLink_ridsafe_lockstep_done_message,
     MAVLINK_MSG_ID_RIDSAFE_RID_FRAME: MAVLink_ridsafe_rid_frame_message,
+    MAVLINK_MSG_ID_RIDSAFE_OBSERVATION_PACK: MAVLink_ridsafe_observation_pack_message,
     MAVLINK_MSG_ID_SYS_STATUS: MAVLink_sys_status_message,
     MAVLINK_MSG_ID_SYSTEM_TIME: MAVLink_system_time_message,
     MAVLINK_MSG_ID_PING: MAVLink_ping_message,
@@ -17751,6 +17808,58 @@ class MAVLink(object):
 
         """
         self.send(self.ridsafe_rid_frame_encode(rssi_dbm, id_or_mac, transport, channel, frame_len, frame), force_mavlink1=force_mavlink1)
+
+    def ridsafe_observation_pack_encode(self, time_usec: Sequence[int], rx_lat: Sequence[int], rx_lon: Sequence[int], rx_alt: Sequence[float], claimed_lat: Sequence[int], claimed_lon: Sequence[int], claimed_alt: Sequence[float], rid_timestamp: Sequence[float], rssi_dbm: Sequence[float], claimed_direction: Sequence[int], claimed_speed_horizontal: Sequence[int], claimed_speed_vertical: Sequence[int], count: int, uas_id: Sequence[int]) -> MAVLink_ridsafe_observation_pack_message:
+        """
+        Up to three RIDSAFE_OBSERVATION reports of one receiver in one message
+        (its companion's batch, three at a time): the same fields and
+        units, each an array whose first count entries are used (the
+        rest zero). One header, CRC and signature for three reports:
+        199 bytes of payload against 3 x 66.
+
+        time_usec                 : Receive time of each report. [us] (type:uint64_t)
+        rx_lat                    : Receiver's own latitude at each receive time. [degE7] (type:int32_t)
+        rx_lon                    : Receiver's own longitude at each receive time. [degE7] (type:int32_t)
+        rx_alt                    : Receiver's own altitude (WGS-84 geodetic) at each receive time. [m] (type:float)
+        claimed_lat               : Latitude each broadcast claims. [degE7] (type:int32_t)
+        claimed_lon               : Longitude each broadcast claims. [degE7] (type:int32_t)
+        claimed_alt               : Geodetic altitude each broadcast claims. [m] (type:float)
+        rid_timestamp             : Timestamp of each broadcast: seconds after the full UTC hour. [s] (type:float)
+        rssi_dbm                  : Received signal strength of each. [dBm] (type:float)
+        claimed_direction         : Course over ground each broadcast claims (36100: unknown). [cdeg] (type:uint16_t)
+        claimed_speed_horizontal        : Ground speed each broadcast claims (25500: unknown). [cm/s] (type:uint16_t)
+        claimed_speed_vertical        : Vertical speed each broadcast claims, up positive (6300: unknown). [cm/s] (type:int16_t)
+        count                     : Reports in this message, 1 to 3. (type:uint8_t)
+        uas_id                    : Identifier of each transmitter, 20 bytes each, NUL padded. (type:uint8_t)
+
+        """
+        return MAVLink_ridsafe_observation_pack_message(time_usec, rx_lat, rx_lon, rx_alt, claimed_lat, claimed_lon, claimed_alt, rid_timestamp, rssi_dbm, claimed_direction, claimed_speed_horizontal, claimed_speed_vertical, count, uas_id)
+
+    def ridsafe_observation_pack_send(self, time_usec: Sequence[int], rx_lat: Sequence[int], rx_lon: Sequence[int], rx_alt: Sequence[float], claimed_lat: Sequence[int], claimed_lon: Sequence[int], claimed_alt: Sequence[float], rid_timestamp: Sequence[float], rssi_dbm: Sequence[float], claimed_direction: Sequence[int], claimed_speed_horizontal: Sequence[int], claimed_speed_vertical: Sequence[int], count: int, uas_id: Sequence[int], force_mavlink1: bool = False) -> None:
+        """
+        Up to three RIDSAFE_OBSERVATION reports of one receiver in one message
+        (its companion's batch, three at a time): the same fields and
+        units, each an array whose first count entries are used (the
+        rest zero). One header, CRC and signature for three reports:
+        199 bytes of payload against 3 x 66.
+
+        time_usec                 : Receive time of each report. [us] (type:uint64_t)
+        rx_lat                    : Receiver's own latitude at each receive time. [degE7] (type:int32_t)
+        rx_lon                    : Receiver's own longitude at each receive time. [degE7] (type:int32_t)
+        rx_alt                    : Receiver's own altitude (WGS-84 geodetic) at each receive time. [m] (type:float)
+        claimed_lat               : Latitude each broadcast claims. [degE7] (type:int32_t)
+        claimed_lon               : Longitude each broadcast claims. [degE7] (type:int32_t)
+        claimed_alt               : Geodetic altitude each broadcast claims. [m] (type:float)
+        rid_timestamp             : Timestamp of each broadcast: seconds after the full UTC hour. [s] (type:float)
+        rssi_dbm                  : Received signal strength of each. [dBm] (type:float)
+        claimed_direction         : Course over ground each broadcast claims (36100: unknown). [cdeg] (type:uint16_t)
+        claimed_speed_horizontal        : Ground speed each broadcast claims (25500: unknown). [cm/s] (type:uint16_t)
+        claimed_speed_vertical        : Vertical speed each broadcast claims, up positive (6300: unknown). [cm/s] (type:int16_t)
+        count                     : Reports in this message, 1 to 3. (type:uint8_t)
+        uas_id                    : Identifier of each transmitter, 20 bytes each, NUL padded. (type:uint8_t)
+
+        """
+        self.send(self.ridsafe_observation_pack_encode(time_usec, rx_lat, rx_lon, rx_alt, claimed_lat, claimed_lon, claimed_alt, rid_timestamp, rssi_dbm, claimed_direction, claimed_speed_horizontal, claimed_speed_vertical, count, uas_id), force_mavlink1=force_mavlink1)
 
     def sys_status_encode(self, onboard_control_sensors_present: int, onboard_control_sensors_enabled: int, onboard_control_sensors_health: int, load: int, voltage_battery: int, current_battery: int, battery_remaining: int, drop_rate_comm: int, errors_comm: int, errors_count1: int, errors_count2: int, errors_count3: int, errors_count4: int, onboard_control_sensors_present_extended: int = 0, onboard_control_sensors_enabled_extended: int = 0, onboard_control_sensors_health_extended: int = 0) -> MAVLink_sys_status_message:
         """

@@ -62,6 +62,9 @@ BURST = 25  # datagrams per app between two 1 ms pauses
 ALERT_SLACK_S = 5.0
 REPLAY_EVERY = 5  # the relay re-sends every 5th datagram a companion sends to the GCS
 REPLAY_DELAY_S = 0.5  # wall time after forwarding it
+#: The relay captures datagrams to replay this long (wall time) after the first one it sees,
+#: so that every replay reaches a GCS still running (the run lasts DURATION_S / SPEED).
+CAPTURE_S = DURATION_S / SPEED - 2.0
 DROPS = {  # the counters of what an app dropped or refused (links, shell, runner)
     *("bad_data", "truncated", "unknown_id", "invalid_value", "rejected_signature"),
     *("unknown_endpoint", "foreign_system", "other_component", "bad_sysid"),
@@ -212,6 +215,7 @@ class Relay:
         self.forward: dict[Address, socket.socket] = {}  # companion address -> its socket
         self.captured: deque[tuple[float, bytes]] = deque()
         self.forwarded = self.replayed = 0
+        self.first_s: float | None = None  # when the first datagram came (monotonic)
         self.stop = threading.Event()
         self.thread = threading.Thread(target=self._relay, daemon=True)
 
@@ -242,8 +246,10 @@ class Relay:
             selector.register(sock, selectors.EVENT_READ, address)
         sock.sendto(data, ("127.0.0.1", GCS_PORT))  # unconnected: no ICMP errors back
         self.forwarded += 1
-        if self.forwarded % REPLAY_EVERY == 0:
-            self.captured.append((time.monotonic() + REPLAY_DELAY_S, data))
+        now_s = time.monotonic()
+        self.first_s = now_s if self.first_s is None else self.first_s
+        if self.forwarded % REPLAY_EVERY == 0 and now_s < self.first_s + CAPTURE_S:
+            self.captured.append((now_s + REPLAY_DELAY_S, data))
 
     def _replay_due(self) -> None:
         while self.captured and self.captured[0][0] <= time.monotonic():
@@ -324,8 +330,14 @@ def test_a_sprayed_live_run_reaches_every_goal_and_alerts_as_undisturbed_runs_do
     # The relay's replays are refused as replays, it never becomes a peer, and every
     # companion is served as many regions as undisturbed (the issue's relay left them 4-5
     # of ~80): at most the alert's slack and a little jitter fewer.
+    # Each replayed datagram holds at least one packet refused as replayed, unless the
+    # kernel's full receive buffer dropped it first (the spray fills it: ``kernel_overflow``,
+    # any datagram). A companion's reports go three to a packet, so a replayed datagram holds
+    # about one packet, and the replays captured in the run's last second, which came after
+    # the GCS had stopped, are no longer covered by the others' extra packets: none is made.
     assert relay.replayed > 100 and relay.forward.keys()
-    assert counters["gcs"]["replayed"] >= relay.replayed
+    gcs = counters["gcs"]
+    assert gcs["replayed"] + gcs.get("kernel_overflow", 0) >= relay.replayed, gcs
     assert counters["gcs"]["peers_live"] == 4  # the relay's replaying socket is none
     for app, c in companions.items():
         fewest = min(clean[app] for clean in regions_clean)
