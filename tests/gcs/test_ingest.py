@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 from ridsafe.common import frames
 from ridsafe.common.errors import FieldValueError
 from ridsafe.common.frames import GeodeticOrigin
-from ridsafe.common.messages import OBSERVATION_COLUMNS, Observation, ObservationRows
+from ridsafe.common.messages import Observation, ObservationRows
 from ridsafe.gcs.config import GcsConfig
 from ridsafe.gcs.ingest import (
     Ingest,
@@ -353,18 +353,6 @@ def test_a_receiver_that_moves_between_reports_is_placed_where_each_report_says(
         np.testing.assert_allclose(claim.rx_p_enu_m, [rx_enu_m], atol=1e-6)
 
 
-def _rows(observations: list[Observation]) -> ObservationRows:
-    """The rows a columnar link decodes from these reports."""
-    values = np.array(
-        [
-            [math.nan if getattr(o, c) is None else getattr(o, c) for c in OBSERVATION_COLUMNS]
-            for o in observations
-        ]
-    )
-    values.setflags(write=False)
-    return ObservationRows(values, tuple(o.uas_id for o in observations))
-
-
 _VARIANTS: list[dict[str, object]] = [
     {},
     {},
@@ -414,7 +402,11 @@ def test_rows_are_taken_as_each_report_would_be(reports: list[tuple[int, int, bo
             reason = one_by_one.add(1.0, rx_sysid, report)
             if reason is not None:
                 expected.append((report.uas_id, reason))
-    got = [r for rx, batch in batches.items() for r in by_rows.add_rows(1.0, rx, _rows(batch))]
+    got = [
+        r
+        for rx, batch in batches.items()
+        for r in by_rows.add_rows(1.0, rx, ObservationRows.of(batch))
+    ]
     assert got == expected
     assert by_rows.counters == one_by_one.counters
     for a, b in zip(by_rows.close_due(2.0), one_by_one.close_due(2.0), strict=True):
