@@ -44,7 +44,13 @@ from numpy.typing import NDArray
 from ridsafe.common import frames
 from ridsafe.common.frames import GeodeticOrigin
 from ridsafe.common.jit import jit
-from ridsafe.common.messages import FIRST_OPTIONAL_COLUMN, Observation, ObservationRows, Vec3
+from ridsafe.common.messages import (
+    FIRST_OPTIONAL_COLUMN,
+    OBSERVATION_COLUMNS,
+    Observation,
+    ObservationRows,
+    Vec3,
+)
 from ridsafe.gcs.config import GcsConfig
 from ridsafe.gcs.pipeline_api import ObservedClaim, readonly
 
@@ -73,20 +79,8 @@ class RejectReason(enum.Enum):
 # --- checks (pure functions) ---------------------------------------------------------------
 
 
-_REQUIRED_FLOATS = operator.attrgetter(
-    "t_s",
-    "rx_lat_deg",
-    "rx_lon_deg",
-    "rx_alt_m",
-    "claimed_lat_deg",
-    "claimed_lon_deg",
-    "claimed_alt_m",
-    "rid_timestamp_s",
-    "rssi_dbm",
-)
-_OPTIONAL_FLOATS = operator.attrgetter(
-    "claimed_course_deg", "claimed_speed_horizontal_m_s", "claimed_speed_vertical_m_s"
-)
+_REQUIRED_FLOATS = operator.attrgetter(*OBSERVATION_COLUMNS[:FIRST_OPTIONAL_COLUMN])
+_OPTIONAL_FLOATS = operator.attrgetter(*OBSERVATION_COLUMNS[FIRST_OPTIONAL_COLUMN:])
 
 
 def _finite(obs: Observation) -> bool:
