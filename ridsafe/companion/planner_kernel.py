@@ -70,6 +70,13 @@ from numpy.typing import NDArray
 
 from ridsafe.common.jit import jit, jit_inline
 from ridsafe.companion.planner_config import PlannerConfig
+from ridsafe.companion.ramp_kernel import (
+    ramp_axis,
+    ramp_position,
+    ramp_times,
+    rollout_into,
+    velocity_ramp,
+)
 from ridsafe.companion.value import source_coefficient
 
 __all__ = ["KernelParams", "Regions", "score_all", "score_bounded"]
@@ -264,7 +271,7 @@ def _score_bounded_kernel(
         best, best_free = _update_best(a, out, ok, bias, best, best_free)
     for a in range(n_a):  # G alone where the goal-only argmax may still lie
         if ok[a] and not done[a] and not goal_bound[a] < best_free:
-            _rollout_into(p0, v0, va[a], tau, kp.accel, path)
+            rollout_into(p0, v0, va[a], tau, kp.accel, path)
             out[0, a] = _goal_score(path, goal, regions, kp)
     return int(np.count_nonzero(done))
 
@@ -304,17 +311,17 @@ def _goal_bounds(
     dv, t_ramp, scale = np.empty((3, n_a)), np.empty(n_a), np.empty(n_a)
     v_end = np.ascontiguousarray(va.T)
     for a in range(n_a):
-        ramp = _ramp(v0, va[a], kp.accel)
+        ramp = velocity_ramp(v0, va[a], kp.accel)
         dv[0, a], dv[1, a], dv[2, a], t_ramp[a], scale[a] = ramp
-        first[a, 0], first[a, 1], first[a, 2] = _position(p0, v0, va[a], ramp, tau[0])
+        first[a, 0], first[a, 1], first[a, 2] = ramp_position(p0, v0, va[a], ramp, tau[0])
     lo, hi, total = np.full(n_a, np.inf), np.zeros(n_a), np.zeros(n_a)
     outside = np.zeros(n_a)  # samples outside the altitude band
     for k in range(n_k):
         for a in range(n_a):
-            ti, rest, half_a_t2 = _ramp_times(tau[k], t_ramp[a], scale[a])
-            x = _axis(p0[0], v0[0], v_end[0, a], dv[0, a], ti, rest, half_a_t2)
-            y = _axis(p0[1], v0[1], v_end[1, a], dv[1, a], ti, rest, half_a_t2)
-            z = _axis(p0[2], v0[2], v_end[2, a], dv[2, a], ti, rest, half_a_t2)
+            ti, rest, half_a_t2 = ramp_times(tau[k], t_ramp[a], scale[a])
+            x = ramp_axis(p0[0], v0[0], v_end[0, a], dv[0, a], ti, rest, half_a_t2)
+            y = ramp_axis(p0[1], v0[1], v_end[1, a], dv[1, a], ti, rest, half_a_t2)
+            z = ramp_axis(p0[2], v0[2], v_end[2, a], dv[2, a], ti, rest, half_a_t2)
             d = _goal_distance(x - goal[0], y - goal[1], z - goal[2], kp)
             lo[a], hi[a], total[a] = min(lo[a], d), max(hi[a], d), total[a] + d
             outside[a] += 0.0 if _in_altitude_band(z, p0[2], kp) else 1.0
@@ -354,7 +361,7 @@ def _score_action(
     """Fill ``out[0..3, a]`` = G_a, H_a, I_a, min separation and ``ok[a]`` = E_a; ``path``
     and ``conflicts`` are scratch."""
     n_k = tau.shape[0]
-    _rollout_into(p0, v0, va[a], tau, kp.accel, path)
+    rollout_into(p0, v0, va[a], tau, kp.accel, path)
     conflicts[:] = 0
     goal_sum, worst, hazard_sum, intrusion, min_d2 = 0.0, 0.0, 0.0, 0.0, np.inf
     envelope_ok = True
@@ -474,59 +481,6 @@ def _benign_ln_reward(n_k: int, kp: KernelParams) -> FloatArray:
     return table
 
 
-@jit
-def _rollout_into(
-    p0: FloatArray, v0: FloatArray, va: FloatArray, tau: FloatArray, accel: float, path: FloatArray
-) -> None:
-    """actions eq. 2: ``path[k]`` = p(tau_k) of the velocity ramp from v0 to va."""
-    ramp = _ramp(v0, va, accel)
-    for k in range(tau.shape[0]):
-        path[k, 0], path[k, 1], path[k, 2] = _position(p0, v0, va, ramp, tau[k])
-
-
-@jit_inline
-def _ramp(v0: FloatArray, va: FloatArray, accel: float) -> tuple[float, float, float, float, float]:
-    """(dv, the ramp's duration, half the acceleration per unit dv) of actions eq. 2."""
-    dvx, dvy, dvz = va[0] - v0[0], va[1] - v0[1], va[2] - v0[2]
-    dv = math.sqrt(dvx * dvx + dvy * dvy + dvz * dvz)
-    scale = 0.5 * accel / dv if dv > 1e-9 else 0.0  # half the acceleration vector, per unit dv
-    return dvx, dvy, dvz, dv / accel, scale
-
-
-@jit_inline
-def _position(
-    p0: FloatArray,
-    v0: FloatArray,
-    va: FloatArray,
-    ramp: tuple[float, float, float, float, float],
-    tau: float,
-) -> tuple[float, float, float]:
-    """p(tau) of actions eq. 2, given its ``_ramp``."""
-    dvx, dvy, dvz, t_ramp, scale = ramp
-    ti, rest, half_a_t2 = _ramp_times(tau, t_ramp, scale)
-    return (
-        _axis(p0[0], v0[0], va[0], dvx, ti, rest, half_a_t2),
-        _axis(p0[1], v0[1], va[1], dvy, ti, rest, half_a_t2),
-        _axis(p0[2], v0[2], va[2], dvz, ti, rest, half_a_t2),
-    )
-
-
-@jit_inline
-def _ramp_times(tau: float, t_ramp: float, scale: float) -> tuple[float, float, float]:
-    """(time on the ramp, time after it, half the acceleration x that time squared per unit
-    dv) at tau."""
-    ti = min(tau, t_ramp)
-    return ti, tau - ti, scale * ti * ti
-
-
-@jit_inline
-def _axis(
-    p0: float, v0: float, va: float, dv: float, ti: float, rest: float, half_a_t2: float
-) -> float:
-    """One coordinate of p(tau) (actions eq. 2): ramp from v0 by dv, then va."""
-    return p0 + v0 * ti + half_a_t2 * dv + va * rest
-
-
 @jit_inline
 def _later_hazard_bound(
     p0: FloatArray,
@@ -543,10 +497,10 @@ def _later_hazard_bound(
     """An upper bound of H_a from its middle and last samples (module docstring): h there
     as if no conflict had lasted yet (``ln_none``: ln|R(0)| for every count), raised by
     BOUND_SLACK of itself."""
-    ramp = _ramp(v0, va, kp.accel)
+    ramp = velocity_ramp(v0, va, kp.accel)
     h = 0.0
     for k in (tau.shape[0] // 2, tau.shape[0] - 1):
-        x, y, z = _position(p0, v0, va, ramp, tau[k])
+        x, y, z = ramp_position(p0, v0, va, ramp, tau[k])
         scratch[:] = 0
         h = min(h, _hazard_at(x, y, z, k, near, n_near, ln_none, scratch, regions, kp)[0])
     return h * (1.0 - BOUND_SLACK)

@@ -14,7 +14,8 @@ from ridsafe.companion.planner import choose_action
 from ridsafe.companion.planner_api import Neighbour, Region
 from ridsafe.companion.planner_config import PlannerConfig
 from ridsafe.companion.planner_eval import KernelParams, RolloutScores, build_scene, score_actions
-from ridsafe.companion.planner_kernel import TIGHTEN_AFTER, _goal_bounds, _rollout_into
+from ridsafe.companion.planner_kernel import TIGHTEN_AFTER, _goal_bounds
+from ridsafe.companion.ramp_kernel import rollout_into
 
 FloatArray = NDArray[np.float64]
 CHI2_95 = 7.814727903251178
@@ -159,7 +160,7 @@ def test_every_goal_bound_is_above_its_goal_term(name: str) -> None:
         np.testing.assert_array_equal(ok, every.envelope_ok)
         path = np.empty((scene.tau_s.shape[0], 3))
         for a in range(0, n, 7):
-            _rollout_into(p0, v0, va[a], scene.tau_s, kp.accel, path)
+            rollout_into(p0, v0, va[a], scene.tau_s, kp.accel, path)
             np.testing.assert_array_equal(first[a], path[0])
         tight += int(np.count_nonzero(bound - every.goal < 1e-3 * np.abs(every.goal) + 1e-12))
     assert tight > 0  # some bounds are (nearly) the goal term itself: not +inf everywhere
