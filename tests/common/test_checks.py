@@ -17,7 +17,7 @@ from ridsafe.common.scenario import SpooferConfig
 from ridsafe.companion.config import CompanionConfig
 from ridsafe.companion.planner_config import PlannerConfig
 from ridsafe.gcs.config import GcsConfig
-from ridsafe.gcs.pipeline_config import ImmConfig
+from ridsafe.gcs.localisation.config import ImmConfig
 from ridsafe.sim_backend.params import ControllerParams
 
 NON_FINITE = (math.nan, math.inf, -math.inf)

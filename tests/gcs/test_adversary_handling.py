@@ -16,15 +16,11 @@ import pytest
 
 from ridsafe.common.pathloss import received_power_dbm
 from ridsafe.gcs.initiation.grid import grid_posterior
+from ridsafe.gcs.localisation.config import RssiFilterConfig
 from ridsafe.gcs.localisation.power_jitter import PowerJitter
 from ridsafe.gcs.pipeline import EstimationPipeline
 from ridsafe.gcs.pipeline_api import ObservedClaim, readonly
-from ridsafe.gcs.pipeline_config import (
-    ForcedAlertConfig,
-    PipelineConfig,
-    RssiFilterConfig,
-    TrackConfig,
-)
+from ridsafe.gcs.pipeline_config import ForcedAlertConfig, PipelineConfig, TrackConfig
 from ridsafe.gcs.synthetic.traffic import CYCLE_S, SPOOFER_ID, Scene, Traffic, make_traffic
 from tests.gcs.claims import observed_claim
 

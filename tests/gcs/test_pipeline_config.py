@@ -7,12 +7,8 @@ import pytest
 from ridsafe.common.config import from_mapping, to_mapping, with_overrides
 from ridsafe.common.errors import ConfigError, FieldValueError
 from ridsafe.common.messages import RidsafeDetector
-from ridsafe.gcs.pipeline_config import (
-    ForcedAlertConfig,
-    ImmConfig,
-    PipelineConfig,
-    RssiFilterConfig,
-)
+from ridsafe.gcs.localisation.config import ImmConfig, RssiFilterConfig
+from ridsafe.gcs.pipeline_config import ForcedAlertConfig, PipelineConfig
 
 
 def test_defaults_are_the_papers_where_it_gives_them() -> None:

@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from ridsafe.common.pathloss import DB_PER_LN, LOSS_AT_1M_2400MHZ_DB, MIN_DISTANCE_M
-from ridsafe.gcs.pipeline_config import MultilaterationConfig
+from ridsafe.gcs.localisation.config import MultilaterationConfig
 
 FloatArray = NDArray[np.float64]
 

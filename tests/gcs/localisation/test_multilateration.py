@@ -12,6 +12,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy import stats
 
+from ridsafe.gcs.localisation.config import MultilaterationConfig
 from ridsafe.gcs.localisation.multilateration import (
     FixStatus,
     predicted_rssi,
@@ -19,7 +20,6 @@ from ridsafe.gcs.localisation.multilateration import (
     solve_joint,
     solve_position_only,
 )
-from ridsafe.gcs.pipeline_config import MultilaterationConfig
 
 LOSS = 40.0442
 METHODS = ("trf", "lm")

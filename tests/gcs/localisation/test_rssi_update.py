@@ -8,6 +8,7 @@ import pytest
 
 from ridsafe.common.errors import FieldValueError
 from ridsafe.common.pathloss import received_power_dbm
+from ridsafe.gcs.localisation.config import RssiFilterConfig
 from ridsafe.gcs.localisation.multilateration import rssi_jacobian
 from ridsafe.gcs.localisation.rssi_update import (
     RssiMeasurement,
@@ -20,7 +21,6 @@ from ridsafe.gcs.localisation.rssi_update import (
     linearise,
     nearest_receivers,
 )
-from ridsafe.gcs.pipeline_config import RssiFilterConfig
 from ridsafe.gcs.tracking.imm import Gaussian
 
 

@@ -17,12 +17,12 @@ import pytest
 from numpy.typing import NDArray
 
 from ridsafe.common.ellipsoid import inside
+from ridsafe.gcs.localisation.config import RssiFilterConfig
 from ridsafe.gcs.pipeline_api import CycleOutput
 from ridsafe.gcs.pipeline_config import (
     ForcedAlertConfig,
     GroundTransmitterConfig,
     PipelineConfig,
-    RssiFilterConfig,
 )
 from ridsafe.gcs.region.ground import GroundWatch, flat_on_ground
 from ridsafe.gcs.region.unsafe_region import chi2_threshold, make_region
