@@ -128,15 +128,31 @@ def run(args: argparse.Namespace) -> int:
     return _report(out, status, reason, args.json)
 
 
-class _SimTimeBar:
-    """A progress bar (with ETA) over sim seconds, drawn from the first progress report."""
+#: Said before the kernels are loaded, which on a fresh install (or after an edit) means
+#: compiled: numba caches them beside their modules, so only the first run waits.
+KERNELS_NOTICE = "compiled kernels (the first run after install compiles them, ~40 s): "
 
-    def __init__(self, duration_s: float) -> None:
+
+def _say_ready(seconds: float) -> None:
+    print(f"ready in {seconds:.1f} s", file=sys.stderr, flush=True)
+
+
+class _SimTimeBar:
+    """A progress bar (with ETA) over sim seconds, drawn from the first progress report.
+    ``announce``: say ``KERNELS_NOTICE`` now and "ready" at the first report (a lockstep
+    run reports its first tick once its cores, kernels included, are built)."""
+
+    def __init__(self, duration_s: float, announce: bool = False) -> None:
         self.total = round(duration_s)
         self.bar: tqdm[NoReturn] | None = None
+        self._announced_at = time.perf_counter() if announce else None
+        if announce:
+            print(KERNELS_NOTICE, end="", file=sys.stderr, flush=True)
 
     def __call__(self, now_s: float) -> None:
         if self.bar is None:
+            if self._announced_at is not None:
+                _say_ready(time.perf_counter() - self._announced_at)
             self.bar = tqdm(total=self.total, unit="s", desc="sim time", leave=False, ncols=80)
         done = min(math.floor(now_s), self.total)
         if done > self.bar.n:
@@ -150,8 +166,8 @@ class _SimTimeBar:
 def _lockstep(
     loaded: ScenarioFile, planner: str, out: Path, foxglove: str | None, one_process: bool
 ) -> tuple[str, str]:
-    bar = _SimTimeBar(loaded.scenario.duration_s)
     live: LiveServer | None = None
+    bar: _SimTimeBar | None = None
     try:
         if foxglove:
             from ridsafe.tools.runlog import foxglove_live  # noqa: PLC0415 (an optional extra)
@@ -160,10 +176,12 @@ def _lockstep(
                 *foxglove_live.parse_host_port(foxglove), loaded.scenario.origin
             )
             print(f"Foxglove: open {live.url}", file=sys.stderr, flush=True)
+        bar = _SimTimeBar(loaded.scenario.duration_s, announce=True)
         split = False if one_process else None  # None: two processes where they help
         result = run_lockstep(loaded, planner, out / "run.mcap", bar, live=live, split=split)
     finally:
-        bar.close()
+        if bar is not None:
+            bar.close()
         if live is not None:
             live.close()
     return result.status, result.reason
@@ -177,14 +195,10 @@ def _live(
     speed: float,
     foxglove: str | None,
 ) -> tuple[str, str]:
-    print("compiled kernels: ", end="", file=sys.stderr, flush=True)
-
-    def warm(warm_s: float) -> None:
-        print(f"ready in {warm_s:.1f} s", file=sys.stderr, flush=True)
-
+    print(KERNELS_NOTICE, end="", file=sys.stderr, flush=True)
     bar = _SimTimeBar(loaded.scenario.duration_s)
     try:
-        outcome = run_live(loaded, planner, out, scenario_path, speed, bar, warm, foxglove)
+        outcome = run_live(loaded, planner, out, scenario_path, speed, bar, _say_ready, foxglove)
     finally:
         bar.close()
     for note in outcome.notes:

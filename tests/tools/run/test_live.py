@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from ridsafe.common import topics
+from ridsafe.tools.cli import run_cmd
 from ridsafe.tools.run import live
 from ridsafe.tools.runlog.reader import read_records
 from tests.signals import keyboard_interrupt_on_sigint
@@ -36,7 +37,7 @@ def test_a_short_fast_live_run_flies_logs_and_reports(tmp_path: Path) -> None:
     proc = _run(tmp_path / "out", "--speed", "6", "--duration", "40")
     output, _ = proc.communicate(timeout=120)
     assert proc.returncode == 0, output
-    assert "compiled kernels: ready in" in output
+    assert run_cmd.KERNELS_NOTICE + "ready in" in output
     child_logs = "".join(p.read_text() for p in (tmp_path / "out" / "logs").glob("*.log"))
     assert "after the run's start instant" not in child_logs  # every process was in time
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
