@@ -299,8 +299,8 @@ class FastMdpPlanner:
     def _hazards(
         self, planner_input: PlannerInput
     ) -> tuple[tuple[Neighbour, ...], tuple[Region, ...]]:
-        """The neighbours and regions this planner's policy lets in (stale RID and entries
-        with non-finite numbers dropped)."""
+        """The neighbours and regions this planner's policy lets in (stale RID and regions
+        with non-finite numbers dropped; ``build_scene`` never keeps a neighbour with one)."""
         now = planner_input.t_s
         regions = planner_input.regions if self.policy.use_regions else ()
         regions = tuple(r for r in regions if _finite(r.center_ned_m, r.v_ned_m_s, *r.cov_ned_m2))
@@ -310,7 +310,6 @@ class FastMdpPlanner:
             for n in planner_input.neighbours
             if now - n.t_s <= self.config.neighbour_max_age_s
             and (self.policy.trust_flagged or not (n.flagged or n.uas_id in region_ids))
-            and _finite(n.p_ned_m, n.v_ned_m_s)
         )
         return neighbours, regions
 

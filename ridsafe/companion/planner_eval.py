@@ -109,7 +109,8 @@ def build_scene(
 
     A neighbour is kept when, at some tau, it is within d_safe + v_max tau of p0 (the rollout
     cannot be farther from p0 than v_max tau); a region when its (inflated) ellipsoid comes
-    within max(gate, margin) + v_max tau. Callers filter by policy (flagged, stale) first.
+    within max(gate, margin) + v_max tau; a neighbour with a non-finite number never. Callers
+    filter by policy (flagged, stale) first.
     """
     tau, tau_all = _rollout_times(cfg)  # (K,); (1 + K + K2,): now, rollout, extension
     nb_ids, nb_pos = _neighbours_near(now_s, p0_m, neighbours, tau, cfg)
@@ -165,7 +166,8 @@ def _neighbours_near(
     cfg: PlannerConfig,
 ) -> tuple[tuple[str, ...], FloatArray]:
     """The neighbours that may matter and their positions q_j + w_j (now - t_j + tau_k) :
-    ``(N, K, 3)``."""
+    ``(N, K, 3)``; a neighbour with a non-finite number is never kept (its distance is NaN
+    or inf at every tau, which the gate's ``<`` refuses)."""
     if not neighbours:
         return (), np.zeros((0, tau.shape[0], 3))
     rows = np.array([(*n.p_ned_m, *n.v_ned_m_s, n.t_s) for n in neighbours], dtype=np.float64)

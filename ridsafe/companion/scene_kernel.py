@@ -32,7 +32,8 @@ def project_neighbours(
 ) -> tuple[FloatArray, NDArray[np.bool_]]:
     """Neighbour j (``rows[j]``: position q_j, velocity w_j, receive time t_j) at
     q_j + w_j ((now - t_j) + tau_k) : (N, K, 3), and whether it comes within
-    d_safe + v_max tau_k of p0 at some k : (N,)."""
+    d_safe + v_max tau_k of p0 at some k : (N,) (never, for a row with a NaN or an inf: its
+    distance is NaN or inf, and the strict ``<`` is false for both)."""
     n, n_k = rows.shape[0], tau_s.shape[0]
     pos = np.empty((n, n_k, 3))
     keep = np.zeros(n, dtype=np.bool_)

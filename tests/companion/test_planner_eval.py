@@ -222,6 +222,21 @@ def test_scene_drops_what_cannot_matter() -> None:
     assert scene.rg_center_m.shape == (1, cfg.n_samples + cfg.extension_samples, 3)
 
 
+@pytest.mark.parametrize("field", range(7))
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_scene_leaves_out_a_neighbour_with_a_non_finite_number(field: int, bad: float) -> None:
+    """Position, velocity or receive time: whatever is not finite, the neighbour is not in
+    the scene, and those beside it are."""
+    values = [50.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]  # 50 m away, still, heard now
+    values[field] = bad
+    p, v, t_s = (values[0], values[1], values[2]), (values[3], values[4], values[5]), values[6]
+    broken = Neighbour("broken", p, v, t_s, False)
+    fine = Neighbour("fine", (60.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, False)
+    scene = build_scene(0.0, np.zeros(3), (broken, fine), (), PlannerConfig())
+    assert scene.nb_ids == ("fine",)
+    assert np.all(np.isfinite(scene.nb_pos_m))
+
+
 def test_shield_threshold_is_the_current_distance_inside_the_margin() -> None:
     cfg = PlannerConfig(region_margin_m=50.0, region_velocity_std_m_s=0.0)
     sigma = math.sqrt(CHI2_95) * 20.0
