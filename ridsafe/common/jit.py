@@ -6,9 +6,15 @@ run after an edit compiles again). numba's cache does not track other modules: a
 editing a kernel that calls into another module, delete that package's
 ``__pycache__/*.nb[ci]``. ``jit_inline``: ``jit`` for a kernel's small helpers, inlined into
 their caller at numba's IR level (a call per sample otherwise costs as much as the
-arithmetic it does). ``jit_fastmath`` also lets the compiler reassociate sums: only for
-kernels whose results need no bit-exact order (the track-start grid). All keep the
-function's type for mypy.
+arithmetic it does). Both keep the function's type for mypy.
+
+No kernel is compiled with ``fastmath``: it lets the compiler reorder sums, and then the
+same call can give different last bits depending on which of a kernel's compiled versions
+(array layouts, read-only flags) numba picks, which depends on what its on-disk cache held
+before the run. The track-start grid had it: the same scenario and seed started its first
+track a few ulps apart after a paper run had filled the cache than from an empty one, and
+every later value of that track differed with it. ``tests/common/test_jit.py`` holds the
+rule.
 """
 
 from __future__ import annotations
@@ -18,7 +24,7 @@ from typing import Any, TypeVar, cast
 
 from numba import njit
 
-__all__ = ["jit", "jit_fastmath", "jit_inline"]
+__all__ = ["jit", "jit_inline"]
 
 _F = TypeVar("_F", bound=Callable[..., Any])
 
@@ -31,8 +37,3 @@ def jit(fn: _F) -> _F:
 def jit_inline(fn: _F) -> _F:
     """``numba.njit(cache=True, inline="always")``, typed."""
     return cast(_F, njit(cache=True, inline="always")(fn))
-
-
-def jit_fastmath(fn: _F) -> _F:
-    """``numba.njit(cache=True, fastmath=True)``, typed."""
-    return cast(_F, njit(cache=True, fastmath=True)(fn))

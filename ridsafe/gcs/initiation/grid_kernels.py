@@ -8,14 +8,14 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from ridsafe.common.jit import jit_fastmath
+from ridsafe.common.jit import jit
 
 FloatArray = NDArray[np.float64]
 
 __all__ = ["grid_costs"]
 
 
-@jit_fastmath
+@jit
 def _grid_costs(
     xy: FloatArray, altitudes: FloatArray, rx: FloatArray, z: FloatArray, loss: float
 ) -> tuple[FloatArray, FloatArray]:
