@@ -142,6 +142,10 @@ _OBSERVATION = mav.MAVLink_ridsafe_observation_message
 _PACK = mav.MAVLink_ridsafe_observation_pack_message
 _check_record_offsets(_OBSERVATION, observation_kernels.OFFSETS, observation_kernels.RECORD_STRIDE)
 _check_record_offsets(_PACK, observation_kernels.PACK_OFFSETS, observation_kernels.PACK_STRIDE)
+# The pack's fields are the single report's, each an array, then ``count`` and the ids: its
+# encoding and decoding below take them in that order.
+if _PACK.fieldnames != [*_OBSERVATION.fieldnames[:-1], "count", "uas_id"]:
+    raise AssertionError(f"{_PACK.msgname}: fields {_PACK.fieldnames}, not the report's + count")
 _ID_OFFSET = observation_kernels.OFFSETS["uas_id"]
 _PACK_COUNT = observation_kernels.PACK_OFFSETS["count"]
 _PACK_IDS = observation_kernels.PACK_OFFSETS["uas_id"]
