@@ -161,6 +161,8 @@ class _SimTimeBar:
     def close(self) -> None:
         if self.bar is not None:
             self.bar.close()
+        elif self._announced_at is not None:  # stopped before the first tick: end the line
+            print("stopped", file=sys.stderr, flush=True)
 
 
 def _lockstep(

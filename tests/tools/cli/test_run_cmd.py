@@ -22,3 +22,13 @@ def test_a_lockstep_run_says_it_loads_the_kernels_before_its_bar(
     ready = re.search(re.escape(run_cmd.KERNELS_NOTICE) + r"ready in \d+\.\d s\n", err)
     assert ready is not None, err
     assert "sim time" in err[ready.end() :]
+
+
+def test_a_run_stopped_before_its_first_tick_ends_the_notice_line(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """Ctrl-C while the kernels compile: the notice's line is ended, not left open for the
+    next message."""
+    bar = run_cmd._SimTimeBar(10.0, announce=True)
+    bar.close()
+    assert capsys.readouterr().err == run_cmd.KERNELS_NOTICE + "stopped\n"
