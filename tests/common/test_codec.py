@@ -52,7 +52,7 @@ uas_id = st.text(alphabet="ABCDEFGHJKLMNPRSTUVWXYZ0123456789", min_size=1, max_s
 times = st.floats(min_value=0, max_value=4e6, allow_nan=False)
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200)
 @given(t=times, la=lat, lo=lon, alt=alt_m, rel=finite, v=velocity)
 def test_global_position_int_round_trip_within_wire_scales(
     t: float, la: float, lo: float, alt: float, rel: float, v: m.Vec3
@@ -69,7 +69,7 @@ def test_global_position_int_round_trip_within_wire_scales(
     assert abs(got.time_boot_s - t) <= 0.0005 + 1e-9
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200)
 @given(t=times, p=vec, v=velocity, mask=st.sampled_from(list(m.PositionTargetMask)))
 def test_set_position_target_round_trip(t: float, p: m.Vec3, v: m.Vec3, mask: int) -> None:
     sent = m.SetPositionTargetLocalNed(t, 3, 1, m.MavFrame.LOCAL_NED, mask, p, v, (0, 0, 0), 1, 0)
@@ -80,7 +80,7 @@ def test_set_position_target_round_trip(t: float, p: m.Vec3, v: m.Vec3, mask: in
     assert all(_close(a, b, 1e-3) for a, b in zip(got.v_ned_m_s, v, strict=True))
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200)
 @given(
     t=times,
     rx=st.tuples(lat, lon, alt_m),
@@ -117,7 +117,7 @@ def test_observation_round_trip(
     assert (got.claimed_speed_vertical_m_s is None) == (speed_v is None)
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=100)
 @given(
     reports=st.lists(
         st.tuples(times, st.tuples(lat, lon, alt_m), st.floats(-150, 30), uas_id),
@@ -147,7 +147,7 @@ def test_an_observation_pack_of_none_or_four_is_refused_on_the_way_out() -> None
             codec.to_mavlink(m.ObservationPack(reports))
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=100)
 @given(
     la=lat,
     lo=lon,
@@ -168,7 +168,7 @@ def test_unsafe_region_round_trip(
     assert got.valid_until_s == 11.0
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200)
 @given(
     la=lat,
     lo=lon,

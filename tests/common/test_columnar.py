@@ -104,7 +104,7 @@ def _same(a: object, b: object) -> bool:
     return a == b
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=300)
 @given(
     packets=st.lists(
         st.tuples(

@@ -23,7 +23,7 @@ def _rotation(a: float, b: float) -> NDArray[np.float64]:
     return out
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 @given(
     st.lists(st.floats(0.5, 2000.0), min_size=3, max_size=3),
     st.floats(-3.0, 3.0),

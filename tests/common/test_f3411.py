@@ -37,7 +37,7 @@ from ridsafe.common.f3411 import (
 from ridsafe.common.f3411_fields import MAVLINK_FIELDS, IntType, strncpy
 
 VECTORS_PATH = Path(__file__).parents[1] / "data" / "odid_f3411_vectors.jsonl.gz"
-PROPERTY_SETTINGS = settings(max_examples=250, deadline=None)
+PROPERTY_SETTINGS = settings(max_examples=250)
 
 Fields = dict[str, Any]
 

@@ -120,7 +120,7 @@ def test_ecef_known_points() -> None:
     np.testing.assert_allclose(geodetic_to_ecef(-90.0, 33.0, 5.0), [0.0, 0.0, -b - 5.0], atol=1e-9)
 
 
-@settings(max_examples=200, deadline=None)  # the first call compiles the kernel
+@settings(max_examples=200)
 @given(
     st.floats(-89.0, 89.0),
     st.floats(-180.0, 180.0),
@@ -187,7 +187,7 @@ def test_across_the_antimeridian() -> None:
 
 
 @pytest.mark.parametrize("origin", ORIGINS, ids=str)
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 @given(offset=local_offsets)
 def test_enu_round_trip_is_sub_millimetre(
     origin: GeodeticOrigin, offset: tuple[float, float, float]
@@ -379,7 +379,7 @@ def test_course_points_along_the_velocity(north: float, east: float) -> None:
     assert math.sin(course) * speed == pytest.approx(east, abs=1e-9)
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200)
 @given(
     lat=st.floats(-89.0, 89.0),
     lon=st.floats(-180.0, 180.0),
@@ -396,7 +396,7 @@ def test_single_point_conversion_equals_the_vectorised_one(
     assert np.allclose(geodetic_to_enu_point(origin, *point), expected, atol=1e-6, rtol=0)
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200)
 @given(origin=st.sampled_from(ORIGINS), offset=local_offsets)
 def test_single_point_inverse_equals_the_vectorised_one(
     origin: GeodeticOrigin, offset: tuple[float, float, float]

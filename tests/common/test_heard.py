@@ -66,7 +66,7 @@ def test_the_decoder_remembers_by_frame_and_sender_and_stays_bounded() -> None:
     assert decoder.decode(frame, SENDER) == first and decoder.decode(frame, SENDER) is not first
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200)
 @given(
     lat=st.floats(-89.0, 89.0),
     unix_s=st.floats(1.7e9, 1.8e9),

@@ -43,7 +43,7 @@ CHECKED_COMMANDS = (176, 400, 22, 511, 512)  # DO_SET_MODE, ARM, TAKEOFF, MSG_IN
 unchecked_commands = u16.filter(lambda c: c not in CHECKED_COMMANDS)
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 @given(frame=frames, command=unchecked_commands, p=st.tuples(f32, f32, f32, f32), x=lat, y=lon,
        z=f32)  # fmt: skip
 def test_command_int(frame: int, command: int, p: tuple[float, ...], x: float, y: float,
@@ -67,7 +67,7 @@ def test_a_command_int_with_an_impossible_checked_parameter_is_dropped_and_count
     assert receiver.counters.invalid_value == 1
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 @given(frame=frames, seq=u16, command=u16, x=lat, y=lon, z=f32, kind=st.sampled_from([0, 1, 2]))
 def test_mission_item_int(frame: int, seq: int, command: int, x: float, y: float, z: float,
                           kind: int) -> None:  # fmt: skip
@@ -81,7 +81,7 @@ def test_mission_item_int(frame: int, seq: int, command: int, x: float, y: float
     np.testing.assert_allclose(out.params[4:6], (x, y), atol=quantum / 2 + 1e-12)
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 @given(name=names, value=f32, count=u16, index=u16)
 def test_param_value_and_set(name: str, value: float, count: int, index: int) -> None:
     assert _round_trip(pm.ParamValue(name, value, 9, count, index)) == pm.ParamValue(
@@ -91,7 +91,7 @@ def test_param_value_and_set(name: str, value: float, count: int, index: int) ->
     assert _round_trip(read) == read
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=40)
 @given(
     la=lat,
     lo=lon,

@@ -172,7 +172,7 @@ def test_claimed_ids_are_printable_ascii() -> None:
     assert len(claimed_id(bytes(range(40)))) == 20
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=100)
 @given(arrivals=st.lists(st.floats(0.0, 10.0), max_size=60), period=st.sampled_from([0.1, 0.25]))
 def test_batching_reports_every_heard_broadcast_exactly_once(
     arrivals: list[float], period: float

@@ -147,7 +147,7 @@ def test_a_rollout_through_the_ellipsoid_is_never_chosen_when_a_safe_one_exists(
     )
 
 
-@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=30, suppress_health_check=[HealthCheck.too_slow])
 @given(
     st.floats(-math.pi, math.pi),
     st.floats(40.0, 250.0),
@@ -363,7 +363,7 @@ def test_a_companions_planner_names_its_aircraft_when_stuck(
 VEC = st.tuples(st.floats(-8.0, 8.0), st.floats(-8.0, 8.0), st.floats(-1.5, 1.5))
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=60, suppress_health_check=[HealthCheck.too_slow])
 @given(
     st.tuples(st.floats(-500, 500), st.floats(-500, 500), st.floats(-110, -2)),
     VEC,

@@ -79,7 +79,7 @@ def test_rollout_reversal_brakes_through_zero() -> None:
     np.testing.assert_allclose(v[:, 0], [0.0, -8.0, -8.0], atol=1e-9)
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200)
 @given(VEC, VEC, st.floats(0.5, 5.0))
 def test_rollout_speed_never_exceeds_its_ends(
     v0: tuple[float, float, float], va: tuple[float, float, float], accel: float
@@ -99,7 +99,7 @@ def test_rollout_speed_never_exceeds_its_ends(
     np.testing.assert_allclose(p, p_fine[::250], atol=1e-9)
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=300)
 @given(VEC, VEC, st.floats(0.0, 3.0), st.floats(0.5, 6.0))
 def test_state_at_one_time_is_the_rollout_bit_for_bit(
     v0: tuple[float, float, float], va: tuple[float, float, float], tau_s: float, accel: float

@@ -17,7 +17,7 @@ from ridsafe.common import messages as m
 from ridsafe.companion.telemetry import OwnTelemetry, ReceiverFix
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=100)
 @given(
     lat=st.floats(-80.0, 80.0),
     lon=st.floats(-180.0, 180.0),

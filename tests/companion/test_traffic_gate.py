@@ -88,7 +88,7 @@ _coord = st.floats(-300.0, 300.0)
 _speed = st.floats(-16.0, 16.0)
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200)
 @given(st.tuples(_coord, _coord, _coord), st.tuples(_speed, _speed, _speed))
 def test_closest_approach_matches_dense_sampling(
     r: tuple[float, float, float], u: tuple[float, float, float]

@@ -91,7 +91,7 @@ def _surface_points(cov: FloatArray, chi2: float, n: int = 200_000) -> FloatArra
     return points
 
 
-@settings(max_examples=25, deadline=None)
+@settings(max_examples=25)
 @given(
     st.floats(10.0, 40.0),
     st.floats(10.0, 40.0),

@@ -379,7 +379,7 @@ _VARIANTS: list[dict[str, object]] = [
 ]
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200)
 @given(
     reports=st.lists(
         st.tuples(st.integers(0, len(_VARIANTS) - 1), st.integers(1, 4), st.booleans()),

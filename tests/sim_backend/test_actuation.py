@@ -88,7 +88,7 @@ def test_quantised_armed_command_uses_only_action_set_values() -> None:
         assert all(np.isclose(TORQUE_LEVELS, c).any() for c in cmd[1:])
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 @given(
     st.lists(st.floats(50.0, 500.0, allow_nan=False), min_size=1, max_size=200),
     st.sampled_from(["thrust", "torque"]),

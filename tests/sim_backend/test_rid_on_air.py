@@ -35,7 +35,7 @@ def _circular_diff_deg(a: float, b: float) -> float:
     return abs((a - b + 180.0) % 360.0 - 180.0)
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200)
 @given(
     lat=st.floats(-90.0, 90.0),
     lon=st.floats(-180.0, 180.0),

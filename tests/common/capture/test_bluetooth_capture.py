@@ -151,7 +151,7 @@ def test_btsnoop_without_h4_bytes_reads_received_events_by_the_flags(tmp_path: P
     assert capture.records == 4 and len(capture.frames) == 2
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=40)
 @given(
     index=st.integers(0, len(LOCATIONS) - 1),
     dbm=st.integers(-127, 20),

@@ -18,7 +18,7 @@ def _spd(rng: np.random.Generator, scale: float) -> np.ndarray:
     return scale * (a @ a.T + 0.05 * np.eye(3))
 
 
-@settings(max_examples=50, deadline=None)
+@settings(max_examples=50)
 @given(st.integers(0, 2**32 - 1), st.floats(1e-2, 1e4), st.integers(2, 6))
 def test_pair_distances_equal_the_reference(seed: int, scale: float, n: int) -> None:
     rng = np.random.default_rng(seed)

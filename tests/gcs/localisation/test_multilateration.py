@@ -47,7 +47,7 @@ def geometries(draw: st.DrawFn) -> tuple[np.ndarray, np.ndarray, float]:
 
 
 @pytest.mark.parametrize("method", METHODS)
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=40)
 @given(geo=geometries())
 def test_exact_recovery_without_noise(
     method: str, geo: tuple[np.ndarray, np.ndarray, float]
@@ -66,7 +66,7 @@ def test_exact_recovery_without_noise(
 
 
 @pytest.mark.parametrize("method", METHODS)
-@settings(max_examples=25, deadline=None)
+@settings(max_examples=25)
 @given(geo=geometries())
 def test_position_only_recovery_at_the_known_power(
     method: str, geo: tuple[np.ndarray, np.ndarray, float]

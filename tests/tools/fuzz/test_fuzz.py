@@ -57,9 +57,7 @@ def test_the_same_seed_gives_the_same_inputs(paused_run: FuzzRun) -> None:
     assert inputs(5) == inputs(5) != inputs(6)
 
 
-@settings(
-    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
-)
+@settings(max_examples=150, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=st.binary(max_size=400), index=st.integers(min_value=0))
 def test_arbitrary_bytes_on_any_endpoint_never_escape_a_core(
     paused_run: FuzzRun, data: bytes, index: int
