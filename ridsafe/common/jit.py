@@ -8,13 +8,12 @@ editing a kernel that calls into another module, delete that package's
 their caller at numba's IR level (a call per sample otherwise costs as much as the
 arithmetic it does). Both keep the function's type for mypy.
 
-No kernel is compiled with ``fastmath``: it lets the compiler reorder sums, and then the
-same call can give different last bits depending on which of a kernel's compiled versions
-(array layouts, read-only flags) numba picks, which depends on what its on-disk cache held
-before the run. The track-start grid had it: the same scenario and seed started its first
-track a few ulps apart after a paper run had filled the cache than from an empty one, and
-every later value of that track differed with it. ``tests/common/test_jit.py`` holds the
-rule.
+No kernel is compiled with ``fastmath``: it lets the compiler reorder sums, so the same
+call may round differently in another compilation, and which compiled code a run gets
+depends on what numba's on-disk cache held before it. The track-start grid had it: the same
+scenario and seed started its first track a few ulps apart after a paper run had filled the
+cache than from an empty one, and every later value of that track differed with it
+(without it, the two give the same log). ``tests/common/test_jit.py`` holds the rule.
 """
 
 from __future__ import annotations
