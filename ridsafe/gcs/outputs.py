@@ -108,14 +108,19 @@ def alert_record(change: AlertChange) -> dict[str, object]:
     }
 
 
+def _listed(values: object) -> object:
+    """An array-like of numbers as nested lists of Python floats (a record's JSON form)."""
+    return np.asarray(values, dtype=np.float64).tolist()
+
+
 def track_record(track: TrackEstimate) -> dict[str, object]:
     return {
         "uas_id": track.uas_id,
         "track_id": track.track_id,
-        "p_enu_m": np.asarray(track.p_enu_m, dtype=np.float64).tolist(),
-        "cov_enu_m2": np.asarray(track.cov_enu_m2, dtype=np.float64).tolist(),
-        "v_enu_m_s": np.asarray(track.v_enu_m_s, dtype=np.float64).tolist(),
-        "mode_probabilities": np.asarray(track.mode_probabilities, dtype=np.float64).tolist(),
+        "p_enu_m": _listed(track.p_enu_m),
+        "cov_enu_m2": _listed(track.cov_enu_m2),
+        "v_enu_m_s": _listed(track.v_enu_m_s),
+        "mode_probabilities": _listed(track.mode_probabilities),
         "fix": bool(track.fix),
         "last_fix_s": float(track.last_fix_s),
     }
@@ -125,12 +130,12 @@ def region_record(region: UnsafeRegion, sent: m.UnsafeRegionMsg) -> dict[str, ob
     return {
         "uas_id": region.uas_id,
         "track_id": region.track_id,
-        "center_enu_m": np.asarray(region.center_enu_m, dtype=np.float64).tolist(),
-        "cov_enu_m2": np.asarray(region.cov_enu_m2, dtype=np.float64).tolist(),
-        "v_enu_m_s": np.asarray(region.v_enu_m_s, dtype=np.float64).tolist(),
+        "center_enu_m": _listed(region.center_enu_m),
+        "cov_enu_m2": _listed(region.cov_enu_m2),
+        "v_enu_m_s": _listed(region.v_enu_m_s),
         "chi2_threshold": float(region.chi2_threshold),
         "alpha": float(region.alpha),
         "valid_until_s": sent.valid_until_s,
-        "semi_axes_m": np.asarray(region.semi_axes_m, dtype=np.float64).tolist(),
+        "semi_axes_m": _listed(region.semi_axes_m),
         "flags": sent.flags,
     }
