@@ -18,6 +18,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import argparse  # noqa: E402
 import importlib  # noqa: E402
+import importlib.metadata  # noqa: E402
 import logging  # noqa: E402
 import sys  # noqa: E402
 from collections.abc import Sequence  # noqa: E402
@@ -47,6 +48,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     parser.add_argument(
         "-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)"
     )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     names = [command] if command in _SUBCOMMAND_MODULES else list(_SUBCOMMAND_MODULES)
     for name in names:
@@ -54,11 +56,20 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def _version() -> str:
+    """The installed distribution's version (a source tree run without installing: unknown)."""
+    try:
+        return importlib.metadata.version("ridsafe")
+    except importlib.metadata.PackageNotFoundError:
+        return "(not installed)"
+
+
 def _command_of(argv: Sequence[str]) -> str | None:
     """The subcommand ``argv`` names (its first word that is not an option; the only global
-    option, ``-v``, takes no value), or None where it asks for the global help first."""
+    option, ``-v``, takes no value), or None where it asks for the global help or the version
+first."""
     for arg in argv:
-        if arg in ("-h", "--help"):
+        if arg in ("-h", "--help", "--version"):
             return None
         if not arg.startswith("-"):
             return arg

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
-from importlib.metadata import entry_points
+from importlib.metadata import entry_points, version
 from pathlib import Path
 
 import pytest
@@ -32,13 +32,21 @@ def test_the_console_script_points_at_main() -> None:
     assert script.load() is cli_main.main
 
 
-def test_python_dash_m_runs_the_same_command() -> None:
+@pytest.mark.parametrize("module", ["ridsafe", "ridsafe.tools.cli"])
+def test_python_dash_m_runs_the_same_command(module: str) -> None:
     done = subprocess.run(
-        [sys.executable, "-m", "ridsafe.tools.cli", "--help"],
+        [sys.executable, "-m", module, "--help"],
         cwd=ROOT, capture_output=True, text=True, check=False, timeout=120,
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     assert all(name in done.stdout for name in SUBCOMMANDS)
+
+
+def test_version_is_the_installed_distributions(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as done:
+        cli_main.main(["--version"])
+    assert done.value.code == 0
+    assert capsys.readouterr().out.strip() == f"ridsafe {version('ridsafe')}"
 
 
 def test_a_named_command_registers_that_command_alone() -> None:
