@@ -66,8 +66,8 @@ def _version() -> str:
 
 def _command_of(argv: Sequence[str]) -> str | None:
     """The subcommand ``argv`` names (its first word that is not an option; the only global
-    option, ``-v``, takes no value), or None where it asks for the global help or the version
-first."""
+    option, ``-v``, takes no value), or None where it asks for the global help or the
+    version first."""
     for arg in argv:
         if arg in ("-h", "--help", "--version"):
             return None
