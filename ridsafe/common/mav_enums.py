@@ -187,3 +187,4 @@ class RegionFlags(enum.IntFlag):
     DELETED = 1
     COASTING = 2
     ON_GROUND = 4
+    UNCONFIRMED = 8

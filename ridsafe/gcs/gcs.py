@@ -492,6 +492,8 @@ class Gcs:
             flags = m.RegionFlags.COASTING if region.track_id in coasting else m.RegionFlags.NONE
             if region.on_ground:
                 flags |= m.RegionFlags.ON_GROUND
+            if region.unconfirmed:
+                flags |= m.RegionFlags.UNCONFIRMED
             msg = region_message(
                 self.origin, region, now_s, self.config.region_validity_s, int(flags)
             )

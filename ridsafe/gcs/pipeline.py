@@ -29,7 +29,12 @@ since the last cycle, and answers what it decided. Each cycle:
    uas_id's alert, once; with ``forced_alert.enabled`` the configured uas_id is raised with
    detector FORCED at ``time_s`` (and the real detectors only report unless
    ``detectors_also_alert``);
-3. every alerted uas_id without a track gets one from its recent claims;
+3. every alerted uas_id without a track gets one from its recent claims, and so does every
+   *stranger* (``tracks.strangers_after_claims``; the serials the caller's ``strangers``
+   names: no cooperative aircraft accounts for them), its region flagged ``unconfirmed``
+   while no alert stands and published only while no wider than
+   ``tracks.strangers_max_semi_axis_m``; a stranger's track ends once it is neither a
+   stranger nor alerted;
 4. a track whose transmitter was silent ``silence_timeout_s`` is deleted and its alert
    CLEARED (an alert latches while the transmitter is heard: a spoofer that turns honest
    keeps its region until it goes quiet; after a clear, new evidence raises it again); with
@@ -52,7 +57,7 @@ import logging
 import math
 import time
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -164,6 +169,8 @@ def _finite(claim: ObservedClaim) -> bool:
 
 #: (claim, its detectors' results) -> the results alerts are decided on
 ResultReview = Callable[[ObservedClaim, tuple[DetectorResult, ...]], tuple[DetectorResult, ...]]
+#: () -> the serials to track before any alert (strangers: ``tracks.strangers_after_claims``)
+Strangers = Callable[[], Collection[str]]
 
 
 class EstimationPipeline:
@@ -177,10 +184,13 @@ class EstimationPipeline:
         self,
         config: PipelineConfig | None = None,
         review: ResultReview | None = None,
+        strangers: Strangers | None = None,
     ) -> None:
         """``review(claim, results)``: the results the alerts are decided on (default: the
-        detectors' own), e.g. the calibration's (``calibration/review.py``)."""
+        detectors' own), e.g. the calibration's (``calibration/review.py``); ``strangers()``:
+        the serials tracked before any alert, asked every cycle (default: none)."""
         self._review = review
+        self._strangers = strangers
         EstimationPipeline.ensure_warm()
         self.config = config if config is not None else PipelineConfig()
         self._heard: dict[str, _Heard] = {}
@@ -227,8 +237,10 @@ class EstimationPipeline:
                 if heard_up.n_receivers:
                     live.update(heard_up)
         changes.extend(self._forced(now_s))
-        self._initiate_tracks()
+        to_track = self._to_track()
+        self._initiate_tracks(to_track)
         deleted, cleared = self._delete_silent(now_s)
+        deleted.extend(self._end_unconfirmed(set(to_track)))
         changes.extend(cleared)
         out = self._outputs(now_s, results, changes, deleted)
         elapsed = time.perf_counter() - start
@@ -333,7 +345,7 @@ class EstimationPipeline:
     def _suspect(self, uas_id: str) -> bool:
         """Alerted, never tested, or its latest test at ``SUSPICION`` of a threshold."""
         heard = self._heard.get(uas_id)
-        return uas_id in self._alerts or heard is None or heard.suspicious
+        return uas_id in self._alerts or uas_id in self._tracks or heard is None or heard.suspicious
 
     def _note_suspicion(self, uas_id: str, results: Sequence[DetectorResult]) -> None:
         if not results or self.config.max_claims_per_cycle <= 0:
@@ -410,8 +422,13 @@ class EstimationPipeline:
 
     # --- tracks ---------------------------------------------------------------------------
 
-    def _initiate_tracks(self) -> None:
-        for uas_id in self._alerts:
+    def _to_track(self) -> list[str]:
+        """The alerted serials, then the strangers not alerted."""
+        strangers = () if self._strangers is None else self._strangers()
+        return [*self._alerts, *(s for s in sorted(strangers) if s not in self._alerts)]
+
+    def _initiate_tracks(self, to_track: Sequence[str]) -> None:
+        for uas_id in to_track:
             if uas_id in self._tracks:
                 continue
             heard = self._heard.get(uas_id)
@@ -441,17 +458,36 @@ class EstimationPipeline:
                 continue
             del self._alerts[uas_id]
             cleared.append(AlertChange(uas_id, alert.detector, 0.0, 0.0, AlertState.CLEARED))
-            if self._tracks.pop(uas_id, None) is not None:
+            if self._end_track(uas_id):
                 deleted.append(uas_id)
-                self._track_arrivals.pop(uas_id, None)
-                self._publisher.forget(uas_id)
-                if self._ground is not None:
-                    self._ground.forget(uas_id)
                 logger.info("track on %s deleted after %.1f s of silence", uas_id, timeout)
+        for uas_id in [u for u in self._tracks if u not in self._alerts]:  # strangers'
+            heard = self._heard.get(uas_id)
+            if heard is None or now_s - heard.last_heard_s > timeout:
+                self._end_track(uas_id)
+                deleted.append(uas_id)
+                logger.info("track on stranger %s deleted after %.1f s of silence", uas_id, timeout)
         for uas_id, heard in list(self._heard.items()):
             if now_s - heard.last_heard_s > FORGET_AFTER_S and uas_id not in self._alerts:
                 del self._heard[uas_id]
         return deleted, cleared
+
+    def _end_unconfirmed(self, to_track: set[str]) -> list[str]:
+        """End the tracks of serials neither alerted nor strangers any longer."""
+        return [u for u in list(self._tracks) if u not in to_track and self._end_track(u)]
+
+    def _end_track(self, uas_id: str) -> bool:
+        """Forget ``uas_id``'s track (a new one needs a newer claim); False if it had none."""
+        if self._tracks.pop(uas_id, None) is None:
+            return False
+        heard = self._heard.get(uas_id)
+        if heard is not None and heard.recent:
+            heard.tried_init_at_s = heard.recent[-1].t_s
+        self._track_arrivals.pop(uas_id, None)
+        self._publisher.forget(uas_id)
+        if self._ground is not None:
+            self._ground.forget(uas_id)
+        return True
 
     def _coasting(self, uas_id: str, now_s: float, silent_s: float) -> bool:
         """Keep a silent alerted track while its region is narrow enough (``tracks.
@@ -478,6 +514,7 @@ class EstimationPipeline:
     ) -> CycleOutput:
         estimates = []
         regions: list[UnsafeRegion] = []
+        wide_m = self.config.tracks.strangers_max_semi_axis_m
         for track in self._tracks.values():
             est = track.estimate(now_s)
             if not finite(est):
@@ -492,18 +529,19 @@ class EstimationPipeline:
                     center, cov, ground.ground_z_enu_m, self.config.ghosts.max_height_m,
                     chi2_threshold(self.config.region.alpha),
                 )  # fmt: skip
-            regions.append(
-                make_region(
-                    est.uas_id,
-                    est.track_id,
-                    now_s,
-                    center,
-                    cov,
-                    velocity,
-                    self.config.region,
-                    on_ground,
-                )
+            region = make_region(
+                est.uas_id,
+                est.track_id,
+                now_s,
+                center,
+                cov,
+                velocity,
+                self.config.region,
+                on_ground,
+                unconfirmed=est.uas_id not in self._alerts,
             )
+            if not region.unconfirmed or region.semi_axes_m[0] <= wide_m:
+                regions.append(region)
         return CycleOutput(
             claim_results=tuple(results),
             alert_changes=tuple(changes),

@@ -172,6 +172,8 @@ class UnsafeRegion:
     axes_enu: FloatArray  # (3, 3)
     #: A radio standing on the ground (``region/ground.py``): the region is flat on it.
     on_ground: bool = False
+    #: No alert stands: the transmitter is tracked as a stranger (``pipeline.py``).
+    unconfirmed: bool = False
 
 
 @dataclass(frozen=True)

@@ -158,6 +158,19 @@ class TrackConfig:
     #: decides whether a window localises. With 4, an alerted spoofer heard by three
     #: aircraft had no region for up to a minute (path-loss exponent 3, 8 aircraft).
     init_min_receivers: int = 3
+    #: Track a *stranger* before any alert: a transmitter heard in at least this many
+    #: claims none of which any cooperative aircraft accounted for (the calibration's
+    #: labeller never matched one to a receiver's own position, ``calibration/
+    #: cooperative.py``). Its region, flagged UNCONFIRMED, is where its radio is, whatever
+    #: it claims, so planners keep clear of a liar while the detectors still gather
+    #: evidence; an honest stranger's region is where it is anyway. The alert stays the
+    #: detectors' decision. 0: only alerted transmitters are tracked (the paper). Needs the
+    #: labeller (``calibration.enabled`` true or auto).
+    strangers_after_claims: int = 0
+    #: A stranger's region is published only while its largest semi-axis is within this
+    #: (m): wider, it holds back more traffic than it protects from a transmitter that may
+    #: well be honest (its track runs on; an alert publishes it whatever its size).
+    strangers_max_semi_axis_m: float = 250.0
     #: Receptions by receivers lower than this (m above the ground) are left out of the
     #: tracks (their start and updates); the detectors keep them. 0 keeps every reception.
     #: Aircraft on their pads hear a transmitter through the ground's reflection, and on a
@@ -182,6 +195,8 @@ class TrackConfig:
             )
         check_non_negative("coast_max_radius_m", self.coast_max_radius_m)
         check_non_negative("min_receiver_height_m", self.min_receiver_height_m)
+        check_non_negative("strangers_after_claims", self.strangers_after_claims)
+        check_positive("strangers_max_semi_axis_m", self.strangers_max_semi_axis_m)
         if self.init_min_receivers < 3:
             raise FieldValueError(
                 "init_min_receivers",
@@ -382,6 +397,12 @@ class PipelineConfig:
                 "tracks.init_spans_s",
                 f"the longest span {self.tracks.init_spans_s[-1]:g} s is more than the claims "
                 f"kept: max(tracks.backfill_s, detection.window_s) = {kept_s:g} s",
+            )
+        if self.tracks.strangers_after_claims and self.calibration.enabled is False:
+            raise FieldValueError(
+                "tracks.strangers_after_claims",
+                "telling a stranger needs the cooperative aircraft's labeller: "
+                "calibration.enabled true or auto",
             )
         if self.ghosts.enabled and self.rssi_filter.ground_z_enu_m is None:
             raise FieldValueError(

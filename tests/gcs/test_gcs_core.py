@@ -343,6 +343,22 @@ def test_a_deleted_track_sends_its_last_region_flagged_deleted() -> None:
     assert cycle["deleted_tracks"] == [SPOOF]
 
 
+class StrangerPipeline(FakePipeline):
+    """Its region is a stranger's: no alert stands on it."""
+
+    def region(self, now_s: float) -> UnsafeRegion:
+        return dataclasses.replace(super().region(now_s), unconfirmed=True)
+
+
+def test_a_strangers_region_goes_out_and_into_the_log_flagged_unconfirmed() -> None:
+    pair = GcsPair(n_companions=2, pipeline=StrangerPipeline(delete_at_s=6.0))
+    pair.run(7.0)
+    regions = [msg for _, msg in pair.messages("c1", m.UnsafeRegionMsg)]
+    unconfirmed, deleted = int(m.RegionFlags.UNCONFIRMED), int(m.RegionFlags.DELETED)
+    assert [r.flags for r in regions] == [unconfirmed] * 4 + [deleted]
+    assert [r["flags"] for _, r in pair.sink.on(topics.REGIONS)] == [unconfirmed] * 4
+
+
 # --- faults: bad input, failing pipeline, dead and returning peers -------------------------
 
 

@@ -397,8 +397,10 @@ RIDSAFE_REGION_FLAGS_COASTING = 2
 enums["RIDSAFE_REGION_FLAGS"][2] = EnumEntry("RIDSAFE_REGION_FLAGS_COASTING", """No fresh fix: the region is a prediction only.""")
 RIDSAFE_REGION_FLAGS_ON_GROUND = 4
 enums["RIDSAFE_REGION_FLAGS"][4] = EnumEntry("RIDSAFE_REGION_FLAGS_ON_GROUND", """The transmitter stands on the ground while its Remote ID claims to fly (a ghost): the region lies flat on the ground and holds only take-offs and landings it covers.""")
-RIDSAFE_REGION_FLAGS_ENUM_END = 5
-enums["RIDSAFE_REGION_FLAGS"][5] = EnumEntry("RIDSAFE_REGION_FLAGS_ENUM_END", """""")
+RIDSAFE_REGION_FLAGS_UNCONFIRMED = 8
+enums["RIDSAFE_REGION_FLAGS"][8] = EnumEntry("RIDSAFE_REGION_FLAGS_UNCONFIRMED", """No alert stands on this transmitter: it is tracked because no cooperative aircraft accounts for its Remote ID (a stranger), and its region is where its radio is, whatever it claims.""")
+RIDSAFE_REGION_FLAGS_ENUM_END = 9
+enums["RIDSAFE_REGION_FLAGS"][9] = EnumEntry("RIDSAFE_REGION_FLAGS_ENUM_END", """""")
 
 # RIDSAFE_RID_TRANSPORT
 enums["RIDSAFE_RID_TRANSPORT"] = Enum()

@@ -254,6 +254,7 @@ class CooperativeLabeller:
         self._receivers = _ReceiverPositions()
         self._votes: dict[str, Counter[int]] = {}
         self._labels: dict[str, int] = {}  # what the votes say (``_vote``)
+        self._claims: Counter[str] = Counter()  # claims seen per serial
         self.samples = LabelledReceptions(cfg.max_samples)
         #: False once nothing will be fitted or checked again: labelled serials keep their
         #: label without further votes and yield no samples (serials not yet labelled
@@ -267,6 +268,18 @@ class CooperativeLabeller:
     def label_of(self, uas_id: str) -> int | None:
         """The receiver system id serial ``uas_id`` is labelled with, if it is cooperative."""
         return self._labels.get(uas_id)
+
+    def strangers(self, min_claims: int) -> frozenset[str]:
+        """Serials heard in at least ``min_claims`` claims, none of which matched a
+        receiver's own position: no aircraft of the fleet accounts for them. A serial that
+        ever matched is none (a fleet aircraft's claims match from its first ones; one that
+        borrows a fleet serial, or once claims a receiver's own position, is left to the
+        detectors)."""
+        return frozenset(
+            uas_id
+            for uas_id, count in self._claims.items()
+            if count >= min_claims and uas_id not in self._votes
+        )
 
     def _vote(self, uas_id: str, sysid: int) -> None:
         votes = self._votes.get(uas_id)
@@ -292,6 +305,7 @@ class CooperativeLabeller:
         cfg = self.cfg
         matches = self._receivers.update_and_match(claims, cfg.match_age_s, cfg.match_m)
         labelled: list[tuple[int, ObservedClaim]] = []
+        self._claims.update(claim.uas_id for claim in claims)
         for claim, match in zip(claims, matches, strict=True):
             if match is None or (not self.learning and self.label_of(claim.uas_id) is not None):
                 continue

@@ -18,7 +18,11 @@ sigma. The scaling is taken about the fleet's mean level P0 of the first fit (rs
 on (scaled about 0, a refit from n = 2.9 to 3.0 moves a P of -20 dBm by 0.5 dB, which a
 track, its power a slow random walk, takes for a range error). Even so a track does not
 survive a changed mapping well (exponent 3, 2 dB, seed 0: containment 0.95 -> 0.65 with
-refits during the track), so refits stop once a track runs. The noise std is the inner
+refits during the track), so while any track runs the tracks' RSSI keeps the mapping in
+force when the first of them started (``tracks_estimate``); the detectors' follows every
+refit (a stranger's track, ``tracks.strangers_after_claims``, runs from the first seconds,
+and the first fit, made on the ground, would otherwise test every claim after it: the
+detection delay at 4 dB rose by 2-8 s with refits stopped). The noise std is the inner
 pipeline's ``rssi_sigma_db`` (floored at ``sigma_floor_db``). So the detectors' thresholds
 and the localisers' measurement noise follow the fitted channel; ``pipeline.rssi_sigma_db``
 is only the starting point that is never used once calibrated. What the fitted model still
@@ -110,6 +114,7 @@ def to_free_space_all(
     pivot_dbm: float = 0.0,
     tested: ChannelEstimate | None = None,
     floor_dbm: float = -math.inf,
+    tracks: ChannelEstimate | None = None,
 ) -> list[ObservedClaim]:
     """``to_free_space`` of each claim, the cycle's receptions mapped in one pass. With
     ``tested`` (the detectors' fit: with the links' gain by elevation, or on the RSSI less
@@ -118,7 +123,8 @@ def to_free_space_all(
     mapped by ``estimate`` (they cannot know a liar's elevation). With a finite
     ``floor_dbm`` (the receivers' sensitivity, as estimated) the detectors' RSSI is less each
     link's expected lift above its mean at the claimed position (``censoring.py``); the
-    tracks' is not."""
+    tracks' is not. With ``tracks`` (a fit the running tracks hold to) the tracks get the
+    RSSI mapped by it, the detectors by ``estimate`` (or ``tested``)."""
     if not claims:
         return []
     bounds_array = reception_bounds(claims)
@@ -126,9 +132,22 @@ def to_free_space_all(
     rssi_dbm = np.concatenate([claim.rssi_dbm for claim in claims])
     rx_sysid = np.concatenate([claim.rx_sysid for claim in claims])
     mapped = _mapped(rssi_dbm - estimate.bias_of(rx_sysid), estimate, pivot_dbm)
-    if tested is None and not math.isfinite(floor_dbm):
+    if tested is None and not math.isfinite(floor_dbm) and (tracks is None or tracks is estimate):
         return [
             dataclasses.replace(claim, rssi_dbm=mapped[bounds[j] : bounds[j + 1]])
+            for j, claim in enumerate(claims)
+        ]
+    if tracks is not None and tracks is not estimate:
+        for_tracks_dbm = _mapped(rssi_dbm - tracks.bias_of(rx_sysid), tracks, pivot_dbm)
+    else:
+        for_tracks_dbm = mapped
+    if tested is None and not math.isfinite(floor_dbm):
+        return [
+            dataclasses.replace(
+                claim,
+                rssi_dbm=mapped[bounds[j] : bounds[j + 1]],
+                track_rssi_dbm=for_tracks_dbm[bounds[j] : bounds[j + 1]],
+            )
             for j, claim in enumerate(claims)
         ]
     tested = estimate if tested is None else tested
@@ -146,7 +165,7 @@ def to_free_space_all(
         dataclasses.replace(
             claim,
             rssi_dbm=for_test[bounds[j] : bounds[j + 1]],
-            track_rssi_dbm=mapped[bounds[j] : bounds[j + 1]],
+            track_rssi_dbm=for_tracks_dbm[bounds[j] : bounds[j + 1]],
         )
         for j, claim in enumerate(claims)
     ]
@@ -175,6 +194,9 @@ class CalibratingPipeline:
         #: fit ``estimate``, which the tracks' claims are mapped with, is the same.
         self.tested_estimate: ChannelEstimate | None = None
         self.inner: EstimationPipeline | None = None
+        #: The fit the running tracks' RSSI is mapped with: the one in force when the first
+        #: of them started, kept while any runs (None: ``estimate``; module docstring).
+        self.tracks_estimate: ChannelEstimate | None = None
         self._held: deque[ObservedClaim] = deque()
         self._newest_held_s = 0.0
         self._checked_s = 0.0  # when the channel was last fitted or checked
@@ -191,6 +213,7 @@ class CalibratingPipeline:
         return self.inner is not None and self.estimate is None
 
     def step(self, now_s: float, claims: Sequence[ObservedClaim]) -> CycleOutput:
+        self._hold_tracks_mapping()
         self.labeller.observe_all(claims)
         self._floor.observe(claims)
         if self.inner is None:
@@ -215,7 +238,12 @@ class CalibratingPipeline:
         claims = [airborne_receptions(c, h) for c in claims]
         if self.estimate is not None:
             claims = to_free_space_all(
-                claims, self.estimate, self._pivot_dbm, self.tested_estimate, self._floor_dbm()
+                claims,
+                self.estimate,
+                self._pivot_dbm,
+                self.tested_estimate,
+                self._floor_dbm(),
+                self.tracks_estimate,
             )
             if self._track_noise is not None:
                 self._track_noise.observe(claims)
@@ -237,7 +265,7 @@ class CalibratingPipeline:
             if check.fits and (check.p_value >= cal.configured_accept_p or self._ready(now_s)):
                 logger.info("t=%.2f s: the configured channel fits: %s", now_s, check.describe())
                 review = CalibratedReview(self._veto_only(), self.labeller)
-                self.inner = EstimationPipeline(self.config, review)
+                self.inner = EstimationPipeline(self.config, review, self._strangers)
                 n_samples = len(self.labeller.samples)
                 self._decision = ChannelDecision(
                     "configured", n_samples, check.residual_std_db, check.p_value, None, None
@@ -254,7 +282,15 @@ class CalibratingPipeline:
     def _start_fitted(self, now_s: float) -> None:
         self.estimate, self._checked_s = self._fit(self._rejection), now_s
         self._pivot_dbm = float(np.mean(list(self.estimate.tx_level_db.values())))
-        self.inner = EstimationPipeline(self._calibrated_config(self.estimate), self.review)
+        self.inner = EstimationPipeline(
+            self._calibrated_config(self.estimate), self.review, self._strangers
+        )
+
+    def _strangers(self) -> frozenset[str]:
+        """The serials the inner pipeline tracks before any alert (``tracks.
+        strangers_after_claims``; none when 0)."""
+        n = self.config.tracks.strangers_after_claims
+        return self.labeller.strangers(n) if n > 0 else frozenset()
 
     def _veto_only(self) -> CalibrationConfig:
         """The review on the configured channel: the cross-check, nothing fitted."""
@@ -286,8 +322,9 @@ class CalibratingPipeline:
 
     def _may_switch(self) -> bool:
         """Until an alert is raised: a switch replays the held claims into a new pipeline,
-        which cannot take over the old one's alerts and tracks."""
-        return self.inner is not None and not self.inner.alerted and not self.inner.tracks
+        which cannot take over the old one's alerts and tracks (a stranger's track it starts
+        again from the claims replayed)."""
+        return self.inner is not None and not self.inner.alerted
 
     def _check_due(self, now_s: float) -> bool:
         """``refit_s`` since the channel was last checked or fitted (the configured channel
@@ -296,9 +333,17 @@ class CalibratingPipeline:
         return refit_s > 0.0 and now_s - self._checked_s >= refit_s
 
     def _refit_due(self, now_s: float) -> bool:
-        """Every ``refit_s``, while no track runs: a track takes a changed mapping for a
-        change of range (its transmit power a slow random walk)."""
-        return self._check_due(now_s) and self.inner is not None and not self.inner.tracks
+        """Every ``refit_s`` (the tracks keep their mapping: ``_hold_tracks_mapping``)."""
+        return self._check_due(now_s) and self.inner is not None
+
+    def _hold_tracks_mapping(self) -> None:
+        """While a track runs its RSSI keeps the mapping it started on: a track takes a
+        changed mapping for a change of range (its transmit power a slow random walk). The
+        detectors take every refit."""
+        if self.inner is None or not self.inner.tracks:
+            self.tracks_estimate = None
+        elif self.tracks_estimate is None:
+            self.tracks_estimate = self.estimate
 
     def _update_inflation(self, now_s: float) -> None:
         """Tracks started from now on localise with the noise the vouched claims show."""

@@ -97,6 +97,7 @@ def make_region(
     v_enu_m_s: FloatArray,
     cfg: RegionConfig,
     on_ground: bool = False,
+    unconfirmed: bool = False,
 ) -> UnsafeRegion:
     """The region of an estimate at ``t_s``, valid for ``cfg.validity_s``."""
     cov, lam, V = _positive_definite_eigh(cov_enu_m2)
@@ -115,4 +116,5 @@ def make_region(
         semi_axes_m=readonly(semi),
         axes_enu=readonly(axes),
         on_ground=on_ground,
+        unconfirmed=unconfirmed,
     )

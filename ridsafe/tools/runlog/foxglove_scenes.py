@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ridsafe.common.frames import GeodeticOrigin, enu_to_geodetic
+from ridsafe.common.mav_enums import RegionFlags
 
 __all__ = [
     "ENU_FRAME",
@@ -58,6 +59,8 @@ BENIGN_COLOUR: RGBA = (0.20, 0.55, 1.00, 1.00)
 SPOOFER_COLOUR: RGBA = (1.00, 0.15, 0.10, 1.00)
 CLAIMED_COLOUR: RGBA = (1.00, 0.15, 0.10, 0.35)
 REGION_COLOUR: RGBA = (1.00, 0.55, 0.00, 0.25)
+#: A stranger's region, no alert standing (``RegionFlags.UNCONFIRMED``).
+UNCONFIRMED_REGION_COLOUR: RGBA = (1.00, 0.90, 0.20, 0.20)
 LABEL_COLOUR: RGBA = (1.00, 1.00, 1.00, 1.00)
 
 
@@ -350,7 +353,9 @@ def ellipsoid_axes(cov_m2: ArrayLike, chi2_threshold: float) -> tuple[FloatArray
 def regions_scene(t_s: float, region: Mapping[str, Any]) -> Json:
     """``foxglove.SceneUpdate`` from a ``/gcs/unsafe_regions`` record: one ellipsoid entity
     ``region/<uas_id>`` (sphere with size = 2 semi-axes, oriented along the principal axes),
-    shown until the region's ``valid_until_s``."""
+    shown until the region's ``valid_until_s``; a stranger's (flagged UNCONFIRMED) in its
+    own colour, labelled "stranger"."""
+    unconfirmed = bool(int(region.get("flags", 0)) & RegionFlags.UNCONFIRMED)
     semi_axes, rotation = ellipsoid_axes(region["cov_enu_m2"], float(region["chi2_threshold"]))
     sphere = {
         "pose": {
@@ -358,16 +363,17 @@ def regions_scene(t_s: float, region: Mapping[str, Any]) -> Json:
             "orientation": _quat(quaternion_from_matrix(rotation)),
         },
         "size": _vec(2.0 * semi_axes),
-        "color": _rgba(REGION_COLOUR),
+        "color": _rgba(UNCONFIRMED_REGION_COLOUR if unconfirmed else REGION_COLOUR),
     }
     valid_until = region.get("valid_until_s")
     lifetime = 0.0 if valid_until is None else max(valid_until - t_s, MIN_REGION_LIFETIME_S)
     uas_id = str(region["uas_id"])
+    kind = "stranger" if unconfirmed else "unsafe"
     entity = _entity(
         t_s,
         f"region/{uas_id}",
         spheres=[sphere],
-        texts=[_label(region["center_enu_m"], f"unsafe {uas_id}")],
+        texts=[_label(region["center_enu_m"], f"{kind} {uas_id}")],
         lifetime_s=lifetime,
         metadata={"uas_id": uas_id, "track_id": str(region.get("track_id"))},
     )

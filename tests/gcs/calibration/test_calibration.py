@@ -4,6 +4,7 @@ aircraft and never the spoofer, the calibrating pipeline maps RSSI onto free spa
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -141,6 +142,27 @@ def test_a_cycle_is_mapped_as_its_claims_one_by_one() -> None:
         assert out.rx_sysid is claim.rx_sysid and out.uas_id == claim.uas_id
         assert np.array_equal(to_free_space(claim, est, -45.0).rssi_dbm, expected)
     assert to_free_space_all([], est) == []
+
+
+@pytest.mark.parametrize("floor_dbm", [-math.inf, -95.0])
+def test_the_tracks_may_hold_to_a_fit_of_their_own(floor_dbm: float) -> None:
+    """With ``tracks``: the detectors' RSSI mapped by the current fit, the tracks' by the one
+    they hold to (with or without the sensitivity's lift corrected for the detectors)."""
+    rng = np.random.default_rng(4)
+    now = ChannelEstimate(2.7, 0.1, {1: 2.0, 2: -1.0, 3: 0.5}, {}, 3.0, 2.5, 1000)
+    held = ChannelEstimate(2.2, 0.1, {1: -1.0, 2: 1.5, 3: 0.0}, {}, 3.0, 2.5, 300)
+    claim = free_space_claim(
+        "X", 0.0, [0.0, 0.0, 50.0], {1: [100.0, 0.0, 50.0], 2: [0.0, 700.0, 50.0], 3: [9, 9, 9]}
+    )
+    claim = replace(claim, rssi_dbm=readonly(claim.rssi_dbm + rng.normal(0.0, 2.0, 3)))
+    (out,) = to_free_space_all([claim], now, -45.0, None, floor_dbm, held)
+    (plain,) = to_free_space_all([claim], now, -45.0, None, floor_dbm)
+    (as_held,) = to_free_space_all([claim], held, -45.0)
+    assert np.array_equal(out.rssi_dbm, plain.rssi_dbm)
+    assert out.track_rssi_dbm is not None
+    assert np.array_equal(out.track_rssi_dbm, as_held.rssi_dbm)
+    (same,) = to_free_space_all([claim], now, -45.0, None, -math.inf, now)
+    assert same.track_rssi_dbm is None and np.array_equal(same.rssi_dbm, plain.rssi_dbm)
 
 
 def test_make_pipeline_honours_the_enable_flag() -> None:

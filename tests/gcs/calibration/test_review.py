@@ -8,6 +8,7 @@ import pytest
 from scipy.special import chdtrc
 
 from ridsafe.common.messages import RidsafeDetector
+from ridsafe.gcs.calibration.channel_fit import ChannelEstimate
 from ridsafe.gcs.calibration.config import CalibrationConfig
 from ridsafe.gcs.calibration.cooperative import CooperativeLabeller
 from ridsafe.gcs.calibration.pipeline import CalibratingPipeline
@@ -172,22 +173,33 @@ def test_localisation_sigma_is_the_rssi_sigma_inflated() -> None:
 
 
 @pytest.mark.parametrize(
-    ("refit_s", "with_spoofer", "fits"), [(0.0, False, 1), (8.0, False, 3), (8.0, True, 1)]
+    ("refit_s", "with_spoofer", "fits"), [(0.0, False, 1), (8.0, False, 3), (8.0, True, 3)]
 )
-def test_the_channel_is_refit_every_refit_s_until_a_track_runs(
+def test_the_channel_is_refit_every_refit_s_and_a_track_keeps_the_fit_it_started_on(
     refit_s: float, with_spoofer: bool, fits: int
 ) -> None:
     """Synthetic traffic (truthful benign claims): one fit, or one every ``refit_s`` on the
-    growing labelled set until the spoofer's track starts; never a false alert."""
+    growing labelled set, for the detectors; the spoofer's track keeps the fit in force when
+    it started; never a false alert."""
     traffic = make_traffic(Scene(seed=2, n_receivers=8, duration_s=24.0, with_spoofer=with_spoofer))
     cal = CalibrationConfig(enabled=True, min_samples=100, refit_s=refit_s)
     pipeline = CalibratingPipeline(PipelineConfig(calibration=cal))
     seen: list[int] = []
     alerted: set[str] = set()
+    held: list[tuple[float, ChannelEstimate | None, ChannelEstimate | None]] = []
     for now in sorted(traffic.cycles):
         out = pipeline.step(now, traffic.cycles[now])
         alerted |= {a.uas_id for a in out.alert_changes}
         if pipeline.estimate is not None and pipeline.estimate.n_samples not in seen:
             seen.append(pipeline.estimate.n_samples)
+        if pipeline.inner is not None and pipeline.inner.tracks:
+            held.append((now, pipeline.tracks_estimate, pipeline.estimate))
     assert len(seen) == fits and seen == sorted(seen)
     assert alerted == ({SPOOFER_ID} if with_spoofer else set())
+    if with_spoofer:
+        # From the cycle after the track started: the fit its first claims were mapped with,
+        # through later refits.
+        started_on = held[0][2]
+        assert started_on is not None and held[0][1] is None
+        assert all(fit is started_on for _, fit, _ in held[1:])
+        assert pipeline.estimate is not started_on  # the detectors took a refit since

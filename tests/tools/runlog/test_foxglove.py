@@ -279,3 +279,14 @@ def test_region_lifetime(valid_until_s: float | None, lifetime: dict[str, int]) 
     record = {**region_record(rotated_cov()), "valid_until_s": valid_until_s}
     (entity,) = foxglove_scenes.regions_scene(1.0, record)["entities"]
     assert entity["lifetime"] == lifetime
+
+
+@pytest.mark.parametrize(("flags", "label"), [(0, "unsafe"), (8, "stranger"), (10, "stranger")])
+def test_a_strangers_region_is_drawn_apart(flags: int, label: str) -> None:
+    record = {**region_record(rotated_cov()), "flags": flags}
+    (entity,) = foxglove_scenes.regions_scene(1.0, record)["entities"]
+    (text,) = entity["texts"]
+    assert text["text"].split()[0] == label
+    colour = foxglove_scenes.UNCONFIRMED_REGION_COLOUR if flags else foxglove_scenes.REGION_COLOUR
+    (sphere,) = entity["spheres"]
+    assert tuple(sphere["color"].values()) == colour
