@@ -333,8 +333,9 @@ class CalibratingPipeline:
         return refit_s > 0.0 and now_s - self._checked_s >= refit_s
 
     def _refit_due(self, now_s: float) -> bool:
-        """Every ``refit_s`` (the tracks keep their mapping: ``_hold_tracks_mapping``)."""
-        return self._check_due(now_s) and self.inner is not None
+        """Every ``refit_s`` on a fitted channel (the tracks keep their mapping:
+        ``_hold_tracks_mapping``); the configured one, kept, is not fitted."""
+        return self._check_due(now_s) and self.inner is not None and self.estimate is not None
 
     def _hold_tracks_mapping(self) -> None:
         """While a track runs its RSSI keeps the mapping it started on: a track takes a
