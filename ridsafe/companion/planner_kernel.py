@@ -421,10 +421,11 @@ def _hazard_at(
 
 
 @jit_inline
-def _region_distance(
+def _region_signed_distance(
     x: float, y: float, z: float, c: FloatArray, pinv: FloatArray, sigma: float, sqrt_chi2: float
 ) -> float:
-    """Value eq. 4 for one point against one (already predicted) region."""
+    """Value eq. 4 for one point against one (already predicted) region, before its clamp at
+    0: negative inside the ellipsoid."""
     dx, dy, dz = x - c[0], y - c[1], z - c[2]
     m = (
         pinv[0, 0] * dx * dx
@@ -432,7 +433,7 @@ def _region_distance(
         + pinv[2, 2] * dz * dz
         + 2.0 * (pinv[0, 1] * dx * dy + pinv[0, 2] * dx * dz + pinv[1, 2] * dy * dz)
     )
-    return sigma * max(0.0, math.sqrt(max(m, 0.0)) - sqrt_chi2)
+    return sigma * (math.sqrt(max(m, 0.0)) - sqrt_chi2)
 
 
 @jit
@@ -562,8 +563,9 @@ def _region_hazard(
     center, pinv, sigma, sqrt_chi2, threshold = regions
     h, intrusion = 0.0, 0.0
     for r in range(center.shape[0]):
-        d = _region_distance(x, y, z, center[r, k], pinv[r, k], sigma[r, k], sqrt_chi2[r])
-        intrusion += max(0.0, threshold[r] - d)
+        s = _region_signed_distance(x, y, z, center[r, k], pinv[r, k], sigma[r, k], sqrt_chi2[r])
+        intrusion += max(0.0, threshold[r] - s)  # deeper inside, more intrusion
+        d = max(0.0, s)
         if d < kp.region_gate:
             h = min(h, kp.region_coef * math.exp(d * kp.region_ln_decay))
     return h, intrusion

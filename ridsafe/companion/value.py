@@ -50,6 +50,7 @@ __all__ = [
     "benign_reward",
     "predicted_region",
     "region_distance_m",
+    "region_signed_distance_m",
     "source_coefficient",
     "source_value",
     "state_value",
@@ -77,10 +78,11 @@ def benign_reward(base: float, rate_per_s: float, conflict_s: ArrayLike) -> Floa
     return reward
 
 
-def region_distance_m(
+def region_signed_distance_m(
     x_m: ArrayLike, center_m: ArrayLike, cov_m2: ArrayLike, chi2: float
 ) -> FloatArray:
-    """Eq. (4): conservative distance (m) from points ``x_m : (..., 3)`` to the ellipsoid.
+    """sigma_min (sqrt(m) - sqrt(chi2)) for points ``x_m : (..., 3)``: eq. (4) before its
+    clamp at 0, negative inside the ellipsoid (its depth there, in the same metres).
 
     ``cov_m2 : (3, 3)`` must be symmetric positive definite.
     """
@@ -89,7 +91,19 @@ def region_distance_m(
     delta = x - np.asarray(center_m, dtype=np.float64)
     m = mahalanobis2(delta, cov)
     sigma_min = float(np.sqrt(np.linalg.eigvalsh(cov)[0]))
-    dist: FloatArray = sigma_min * np.maximum(0.0, np.sqrt(np.maximum(m, 0.0)) - np.sqrt(chi2))
+    signed: FloatArray = sigma_min * (np.sqrt(np.maximum(m, 0.0)) - np.sqrt(chi2))
+    return signed
+
+
+def region_distance_m(
+    x_m: ArrayLike, center_m: ArrayLike, cov_m2: ArrayLike, chi2: float
+) -> FloatArray:
+    """Eq. (4): conservative distance (m) from points ``x_m : (..., 3)`` to the ellipsoid
+    (0 inside it).
+
+    ``cov_m2 : (3, 3)`` must be symmetric positive definite.
+    """
+    dist: FloatArray = np.maximum(0.0, region_signed_distance_m(x_m, center_m, cov_m2, chi2))
     return dist
 
 

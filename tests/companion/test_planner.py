@@ -183,6 +183,20 @@ def test_inside_the_ellipsoid_the_fallback_leaves_it() -> None:
     assert 0 < out < 0.5 * len(d) and np.all(d[out:] > 0.0)  # out within 7 s, never back in
 
 
+def test_deep_inside_a_region_the_fallback_heads_out_not_on_to_the_goal() -> None:
+    # 50 m sigma: 140 m to the surface, no rollout (10 s at <= 8 m/s) gets out, so what
+    # tells the actions apart is how deep inside their samples are
+    cov = ((2500.0, 0.0, 0.0), (0.0, 2500.0, 0.0), (0.0, 0.0, 2500.0))
+    center: Vec3 = (30.0, 0.0, -60.0)  # ahead, between the aircraft and its goal
+    region = Region("SPOOF", center, cov, CHI2_95, (0.0, 0.0, 0.0), 10.0, 11.0)
+    decision = AwarePlanner().plan(_inp(v=(2.0, 0.0, 0.0), regions=(region,)))
+    assert decision.status is PlannerStatus.NO_SAFE_ACTION
+    away = np.asarray(CRUISE) - np.asarray(center)
+    away /= np.linalg.norm(away)
+    v_away = float(np.dot(decision.target_v_ned_m_s, away))
+    assert v_away > 0.0  # turned back, from +2 m/s toward the centre
+
+
 def test_aware_ignores_flagged_rid_and_trust_rid_avoids_it() -> None:
     liar = Neighbour("SPOOF", (120.0, 0.0, -60.0), (0.0, 0.0, 0.0), 9.8, True)
     aware, trust = (

@@ -15,6 +15,7 @@ from ridsafe.companion.value import (
     benign_reward,
     predicted_region,
     region_distance_m,
+    region_signed_distance_m,
     source_coefficient,
     source_value,
     state_value,
@@ -79,6 +80,16 @@ def test_region_distance_is_zero_inside() -> None:
     cov = np.diag([400.0, 900.0, 1600.0])
     inside = np.array([[0.0, 0.0, 0.0], [40.0, 0.0, 0.0], [0.0, 0.0, 100.0]])
     np.testing.assert_array_equal(region_distance_m(inside, np.zeros(3), cov, CHI2_95), 0.0)
+
+
+def test_region_signed_distance_is_the_depth_inside_a_sphere() -> None:
+    sigma, c = 20.0, np.array([100.0, -50.0, -60.0])
+    radius = sigma * math.sqrt(CHI2_95)
+    directions = np.array([[1.0, 0, 0], [0, -1.0, 0], [0.6, 0.0, 0.8]])
+    depth = np.array([5.0, 30.0, radius])  # the last point is the centre
+    points = c + (radius - depth)[:, None] * directions
+    signed = region_signed_distance_m(points, c, sigma**2 * np.eye(3), CHI2_95)
+    np.testing.assert_allclose(signed, -depth, rtol=1e-12)
 
 
 def _surface_points(cov: FloatArray, chi2: float, n: int = 200_000) -> FloatArray:
