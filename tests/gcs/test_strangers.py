@@ -131,6 +131,23 @@ def test_a_silent_strangers_track_is_deleted_without_an_alert_to_clear() -> None
     assert not any(out.regions for t, out in cycles if t >= deleted)
 
 
+def test_a_silent_alerted_strangers_track_is_not_restarted_from_its_old_claims() -> None:
+    # the alert cleared by the silence, the serial is still a stranger: what it said before
+    # going quiet must not start a second track
+    traffic = make_traffic(Scene(seed=2, n_receivers=10, duration_s=45.0))
+    for t in list(traffic.cycles):
+        if t > 20.0:
+            traffic.cycles[t] = [claim for claim in traffic.cycles[t] if claim.uas_id != SPOOFER_ID]
+    alert = ForcedAlertConfig(enabled=True, uas_id=SPOOFER_ID, time_s=5.0)
+    cycles = _run(traffic, PipelineConfig(forced_alert=alert), lambda: {SPOOFER_ID})
+    changes = [(c.state, t) for t, out in cycles for c in out.alert_changes]
+    assert [state for state, _ in changes] == [AlertState.RAISED, AlertState.CLEARED]
+    cleared_s = changes[1][1]
+    assert [t for t, out in cycles if SPOOFER_ID in out.deleted_tracks] == [cleared_s]
+    after = [e.uas_id for t, out in cycles if t >= cleared_s for e in out.tracks]
+    assert SPOOFER_ID not in after
+
+
 def test_the_calibrating_pipeline_tracks_the_labellers_strangers_from_the_configured_count() -> (
     None
 ):
