@@ -67,6 +67,7 @@ from ridsafe.common.pathloss import received_power_dbm
 from ridsafe.gcs.detection.monitor import TransmitterMonitor, observe_batch
 from ridsafe.gcs.localisation import mixture_kernels
 from ridsafe.gcs.pipeline_api import (
+    FORGET_AFTER_S,
     AlertChange,
     CycleOutput,
     DetectorResult,
@@ -88,8 +89,6 @@ logger = logging.getLogger(__name__)
 
 __all__ = ["EstimationPipeline"]
 
-#: A transmitter's detector memory is dropped after this much silence (seconds).
-FORGET_AFTER_S = 60.0
 _EPS_S = 1e-9
 #: With ``max_claims_per_cycle``, a transmitter whose latest claim scored above this fraction
 #: of an alerting detector's threshold never waits (nor a new or alerted one).

@@ -32,6 +32,10 @@ from ridsafe.common.messages import AlertState, RidsafeDetector
 
 FloatArray = NDArray[np.float64]
 
+#: What the GCS remembers of a claimed transmitter (detector memory, labels, counts) is
+#: dropped after this much silence (seconds): a stream of new serials must not grow it.
+FORGET_AFTER_S = 60.0
+
 
 def readonly(values: object) -> FloatArray:
     """A float64 copy that cannot be written (for arrays stored in frozen dataclasses)."""

@@ -13,7 +13,7 @@ from ridsafe.gcs.calibration.config import CalibrationConfig
 from ridsafe.gcs.calibration.cooperative import CooperativeLabeller
 from ridsafe.gcs.calibration.pipeline import CalibratingPipeline
 from ridsafe.gcs.pipeline import EstimationPipeline, Strangers
-from ridsafe.gcs.pipeline_api import CycleOutput
+from ridsafe.gcs.pipeline_api import FORGET_AFTER_S, CycleOutput
 from ridsafe.gcs.pipeline_config import ForcedAlertConfig, PipelineConfig, TrackConfig
 from ridsafe.gcs.synthetic.traffic import CYCLE_S, SPOOFER_ID, Scene, Traffic, make_traffic
 from tests.gcs.claims import free_space_claim
@@ -47,6 +47,24 @@ def test_the_labeller_names_a_serial_no_receiver_ever_accounted_for() -> None:
     # RID1's first claim matched nobody (nobody had reported its position yet): one claim
     # unaccounted for does not make a stranger of a serial whose later claims matched.
     assert lab.strangers(1) == {"SPOOF"}
+
+
+def test_the_labeller_forgets_a_serial_silent_for_the_pipelines_forget_time() -> None:
+    lab = _labeller_after(5, [AWAY] * 5)
+    assert lab.labels().keys() == {"RID1", "RID2", "RID3"}
+    # a spray: a new serial every 0.1 s for 200 s, while the fleet is silent
+    sprayed = [f"NEW{k}" for k in range(2000)]
+    for k, uas_id in enumerate(sprayed):
+        lab.observe(free_space_claim(uas_id, 5.0 + 0.1 * k, AWAY, FLEET))
+    # what was heard more than FORGET_AFTER_S before the newest claim is gone
+    newest_s = 5.0 + 0.1 * (len(sprayed) - 1)
+    recent = {u for k, u in enumerate(sprayed) if newest_s - (5.0 + 0.1 * k) <= FORGET_AFTER_S}
+    assert lab.strangers(1) == recent and len(recent) < 0.35 * len(sprayed)
+    assert lab.labels() == {}  # the fleet, silent as long, too
+    # a forgotten serial heard again counts afresh
+    for k in range(4):
+        lab.observe(free_space_claim("SPOOF", newest_s + k, AWAY, FLEET))
+    assert "SPOOF" in lab.strangers(4) and "SPOOF" not in lab.strangers(5)
 
 
 def test_a_serial_that_once_claimed_a_receivers_own_position_is_no_stranger() -> None:

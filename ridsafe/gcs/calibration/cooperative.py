@@ -13,7 +13,7 @@ the fit it would have to claim a benign aircraft's true position, and then it is
 
 from __future__ import annotations
 
-from collections import Counter
+from collections import Counter, OrderedDict
 from collections.abc import Sequence
 
 import numpy as np
@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 from ridsafe.gcs.calibration.config import CalibrationConfig
 from ridsafe.gcs.calibration.cooperative_kernels import update_and_match
 from ridsafe.gcs.pipeline_api import (
+    FORGET_AFTER_S,
     ObservedClaim,
     airborne_receptions,
     claimed_positions,
@@ -255,6 +256,8 @@ class CooperativeLabeller:
         self._votes: dict[str, Counter[int]] = {}
         self._labels: dict[str, int] = {}  # what the votes say (``_vote``)
         self._claims: Counter[str] = Counter()  # claims seen per serial
+        #: serial -> newest claim time (s), least recently heard first: what ``_forget`` drops
+        self._last_heard_s: OrderedDict[str, float] = OrderedDict()
         self.samples = LabelledReceptions(cfg.max_samples)
         #: False once nothing will be fitted or checked again: labelled serials keep their
         #: label without further votes and yield no samples (serials not yet labelled
@@ -306,6 +309,7 @@ class CooperativeLabeller:
         matches = self._receivers.update_and_match(claims, cfg.match_age_s, cfg.match_m)
         labelled: list[tuple[int, ObservedClaim]] = []
         self._claims.update(claim.uas_id for claim in claims)
+        self._forget(claims)
         for claim, match in zip(claims, matches, strict=True):
             if match is None or (not self.learning and self.label_of(claim.uas_id) is not None):
                 continue
@@ -313,6 +317,23 @@ class CooperativeLabeller:
             if self.label_of(claim.uas_id) == match:
                 labelled.append((match, _airborne(claim, cfg.min_receiver_height_m)))
         self.samples.add_claims(labelled)
+
+    def _forget(self, claims: Sequence[ObservedClaim]) -> None:
+        """Note when each serial was heard; forget what is known of a serial silent for
+        ``FORGET_AFTER_S`` (its count, votes, label), as the pipeline forgets its detectors:
+        a stream of new serials must not grow the memory, nor ``strangers``' work. One heard
+        again starts afresh (its samples stay)."""
+        heard = self._last_heard_s
+        for claim in claims:
+            heard[claim.uas_id] = max(heard.pop(claim.uas_id, claim.t_s), claim.t_s)
+        newest_s = max(heard[claim.uas_id] for claim in claims)
+        while heard:
+            uas_id, last_s = next(iter(heard.items()))
+            if newest_s - last_s <= FORGET_AFTER_S:
+                break
+            del heard[uas_id], self._claims[uas_id]
+            self._votes.pop(uas_id, None)
+            self._labels.pop(uas_id, None)
 
     def vouches(self, claim: ObservedClaim) -> bool:
         """Is ``claim`` a labelled cooperative aircraft's, claiming where that aircraft last

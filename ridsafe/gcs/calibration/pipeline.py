@@ -81,8 +81,9 @@ from ridsafe.gcs.calibration.config import CalibrationConfig
 from ridsafe.gcs.calibration.cooperative import CooperativeLabeller, claim_links
 from ridsafe.gcs.calibration.review import CalibratedReview
 from ridsafe.gcs.detection.monitor import TransmitterMonitor, observe_batch
-from ridsafe.gcs.pipeline import FORGET_AFTER_S, EstimationPipeline
+from ridsafe.gcs.pipeline import EstimationPipeline
 from ridsafe.gcs.pipeline_api import (
+    FORGET_AFTER_S,
     ChannelDecision,
     CycleOutput,
     GcsPipeline,

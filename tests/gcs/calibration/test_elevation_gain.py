@@ -15,8 +15,7 @@ from ridsafe.gcs.calibration.channel_fit import fit_channel
 from ridsafe.gcs.calibration.config import CalibrationConfig
 from ridsafe.gcs.calibration.cooperative import CooperativeLabeller, link_elevation_deg
 from ridsafe.gcs.calibration.pipeline import CalibratingPipeline, _TrackNoise, to_free_space_all
-from ridsafe.gcs.pipeline import FORGET_AFTER_S
-from ridsafe.gcs.pipeline_api import ObservedClaim, for_tracks
+from ridsafe.gcs.pipeline_api import FORGET_AFTER_S, ObservedClaim, for_tracks
 from ridsafe.gcs.pipeline_config import PipelineConfig
 from ridsafe.gcs.synthetic.traffic import Scene, Traffic, make_traffic
 from tests.gcs.calibration.links import random_links
