@@ -15,7 +15,7 @@ Every decision (the companion calls ``plan`` every ``replan_period_s`` = 0.5 s):
    and take the best action among the *safe* ones: no sample within ``region_margin_m`` of an
    unsafe region (action shielding, I_a = 0) and inside the altitude band (E_a);
 4. fallback when no action is safe: the one with the least total intrusion into the regions
-   (graded by depth inside: the quickest way out), ties by J_a; status ``NO_SAFE_ACTION``;
+   (graded by the horizontal depth inside: the way out), ties by J_a; status ``NO_SAFE_ACTION``;
 5. the setpoint is the chosen rollout's state a short time ahead (position at
    ``target_lead_s``, velocity at ``velocity_lead_s``; why in :mod:`.planner_config`), the
    velocity clipped to the flight envelope (|v| <= max speed, climb/descent limits; the ramp

@@ -9,9 +9,12 @@ value terms of :mod:`ridsafe.companion.value` (eqs. 1-5)::
     d_kj = |p_k - (q_j + w_j (age_j + tau_k))|               neighbour j moved along its RID
                                                               velocity w_j, not frozen
     t_kj = dt #{i < k : d_ij < d_safe}                        conflict time so far (value eq. 3)
-    I_a  = sum_k sum_r max(0, m_r - s_r(p_k, tau_k))          shield intrusion (m), eqs. 4-5
+    I_a  = sum_k sum_r i_r(p_k, tau_k)                        shield intrusion (m), eqs. 4-5
+    i_r  = max(0, m_r - s_r) outside, m_r + depth_r inside    ``value.region_intrusion_m``
     m_r  = min(max(d_r(p_0, 0), 1 m), margin)                 the shield's threshold
     s_r  = sigma_min (sqrt(Mahalanobis^2) - sqrt(chi2))       d_r = max(0, s_r); s_r < 0 inside
+    depth_r = sigma_min (sqrt(chi2) - sqrt(m_h))              m_h: the horizontal offset's
+                                                              Mahalanobis^2, horizontal marginal
     E_a  : no sample below min(floor, own altitude - 1 m) nor above max(ceiling, altitude + 1 m)
 
 Extension (ours): from the rollout's end p_K the aircraft is assumed to fly on straight at the
@@ -27,11 +30,14 @@ The planner maximises J_a = G_a + H_a + b sin(psi_a - psi_goal) over the actions
 I_a = 0 and E_a (see :mod:`ridsafe.companion.planner`). A rollout "enters" a region when it
 comes closer than ``region_margin_m`` to its surface; an aircraft already inside that band
 (the region came to it) may keep its distance but not close in (m_r = its current distance),
-and one inside the ellipsoid itself has no safe action. There I_a grows with the depth
--s_r, so the least intrusion leads out, by the shortest way in the region's own metric,
-rather than on through the region toward the goal (as it would if every sample inside
-counted the same m_r). H_a is a worst case over time rather than a mean: a close pass at
-one sample must not be averaged away by the others.
+and one inside the ellipsoid itself has no safe action. There I_a grows with the horizontal
+depth, so the least intrusion leads out sideways rather than on through the region toward the
+goal (as it would if every sample inside counted the same m_r); a way out up or down counts
+once it is made. Sideways, because the regions are flat and can span the altitude band's
+whole height: graded by the 3-D depth, whose shortest way out is then vertical, the fallback
+sent the fleet to the band's edge and off its routes (docs/results/robustness.md). H_a is a
+worst case over time rather than a mean: a close pass at one sample must not be averaged away
+by the others.
 
 The compiled code is :mod:`ridsafe.companion.planner_kernel`: it scores every action, or, given
 the right-turn bias, only the actions that can still be chosen (a bound on the goal term, whose

@@ -436,6 +436,20 @@ def _region_signed_distance(
     return sigma * (math.sqrt(max(m, 0.0)) - sqrt_chi2)
 
 
+@jit_inline
+def _horizontal_depth(
+    x: float, y: float, c: FloatArray, pinv: FloatArray, sigma: float, sqrt_chi2: float
+) -> float:
+    """sigma (sqrt(chi2) - sqrt(m_h)), >= 0: how deep (x, y) lies in the region's horizontal
+    marginal, whose precision is the Schur complement of P^-1's vertical entry."""
+    dx, dy = x - c[0], y - c[1]
+    a = pinv[0, 0] - pinv[0, 2] * pinv[2, 0] / pinv[2, 2]
+    b = pinv[0, 1] - pinv[0, 2] * pinv[2, 1] / pinv[2, 2]
+    e = pinv[1, 1] - pinv[1, 2] * pinv[2, 1] / pinv[2, 2]
+    m_h = a * dx * dx + 2.0 * b * dx * dy + e * dy * dy
+    return sigma * max(0.0, sqrt_chi2 - math.sqrt(max(m_h, 0.0)))
+
+
 @jit
 def _near_neighbours(
     p0: FloatArray,
@@ -564,7 +578,11 @@ def _region_hazard(
     h, intrusion = 0.0, 0.0
     for r in range(center.shape[0]):
         s = _region_signed_distance(x, y, z, center[r, k], pinv[r, k], sigma[r, k], sqrt_chi2[r])
-        intrusion += max(0.0, threshold[r] - s)  # deeper inside, more intrusion
+        if s >= 0.0:
+            intrusion += max(0.0, threshold[r] - s)
+        else:  # inside: the horizontal depth too (value.region_intrusion_m)
+            depth = _horizontal_depth(x, y, center[r, k], pinv[r, k], sigma[r, k], sqrt_chi2[r])
+            intrusion += threshold[r] + depth
         d = max(0.0, s)
         if d < kp.region_gate:
             h = min(h, kp.region_coef * math.exp(d * kp.region_ln_decay))

@@ -50,6 +50,7 @@ __all__ = [
     "benign_reward",
     "predicted_region",
     "region_distance_m",
+    "region_intrusion_m",
     "region_signed_distance_m",
     "source_coefficient",
     "source_value",
@@ -105,6 +106,29 @@ def region_distance_m(
     """
     dist: FloatArray = np.maximum(0.0, region_signed_distance_m(x_m, center_m, cov_m2, chi2))
     return dist
+
+
+def region_intrusion_m(
+    x_m: ArrayLike, center_m: ArrayLike, cov_m2: ArrayLike, chi2: float, threshold_m: float
+) -> FloatArray:
+    """The shield's intrusion (m) of points ``x_m : (..., 3)`` into the region: outside the
+    ellipsoid ``max(0, threshold - s)`` (``s`` = eq. 4), inside it ``threshold`` plus the
+    point's horizontal depth, sigma_min (sqrt(chi2) - sqrt(m_h)) with m_h the Mahalanobis
+    distance of the horizontal offset under the horizontal marginal (its covariance's upper
+    2 x 2 block). Horizontal because the way out of a region that spans the altitude band is
+    sideways: a vertical exit counts once it is made (the sample is outside).
+    """
+    x = np.asarray(x_m, dtype=np.float64)
+    cov = np.asarray(cov_m2, dtype=np.float64)
+    signed = region_signed_distance_m(x, center_m, cov, chi2)
+    delta = x - np.asarray(center_m, dtype=np.float64)
+    m_h = mahalanobis2(delta[..., :2], cov[:2, :2])
+    sigma_min = float(np.sqrt(np.linalg.eigvalsh(cov)[0]))
+    depth = sigma_min * np.maximum(0.0, np.sqrt(chi2) - np.sqrt(np.maximum(m_h, 0.0)))
+    intrusion: FloatArray = np.where(
+        signed >= 0.0, np.maximum(0.0, threshold_m - signed), threshold_m + depth
+    )
+    return intrusion
 
 
 def predicted_region(

@@ -23,7 +23,7 @@ from ridsafe.companion.value import (
     benign_reward,
     predicted_region,
     region_distance_m,
-    region_signed_distance_m,
+    region_intrusion_m,
     source_value,
 )
 
@@ -98,9 +98,8 @@ def _reference(
         threshold = _threshold(now, p0, r, cfg)
         for k, t in enumerate(tau):
             c, cov = predicted_region(r.center_ned_m, r.v_ned_m_s, r.cov_ned_m2, 1.0, age + t)
-            s = region_signed_distance_m(path[:, k], c, cov, r.chi2_threshold)
-            intrusion += np.maximum(0.0, threshold - s)
-            d = np.maximum(0.0, s)
+            intrusion += region_intrusion_m(path[:, k], c, cov, r.chi2_threshold, threshold)
+            d = region_distance_m(path[:, k], c, cov, r.chi2_threshold)
             term = source_value(cfg.region_reward, cfg.region_decay, cfg.region_gate_m, d)
             hazard[:, k] = np.minimum(hazard[:, k], term)
     h = hazard.min(axis=1) + cfg.hazard_mean_weight * hazard.mean(axis=1)
@@ -127,8 +126,7 @@ def _intrusion(
     total = np.zeros(points.shape[0])
     for r in regions:
         c, cov = predicted_region(r.center_ned_m, r.v_ned_m_s, r.cov_ned_m2, 1.0, now - r.t_s + t)
-        s = region_signed_distance_m(points, c, cov, r.chi2_threshold)
-        total += np.maximum(0.0, _threshold(now, p0, r, cfg) - s)
+        total += region_intrusion_m(points, c, cov, r.chi2_threshold, _threshold(now, p0, r, cfg))
     return total
 
 

@@ -15,6 +15,7 @@ from ridsafe.companion.value import (
     benign_reward,
     predicted_region,
     region_distance_m,
+    region_intrusion_m,
     region_signed_distance_m,
     source_coefficient,
     source_value,
@@ -90,6 +91,23 @@ def test_region_signed_distance_is_the_depth_inside_a_sphere() -> None:
     points = c + (radius - depth)[:, None] * directions
     signed = region_signed_distance_m(points, c, sigma**2 * np.eye(3), CHI2_95)
     np.testing.assert_allclose(signed, -depth, rtol=1e-12)
+
+
+def test_region_intrusion_inside_counts_the_horizontal_depth_only() -> None:
+    cov = np.diag([400.0, 900.0, 100.0])  # flat: 10 m vertical sigma
+    root = math.sqrt(CHI2_95)
+    centre_column = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 25.0]])  # inside, at any height
+    np.testing.assert_allclose(
+        region_intrusion_m(centre_column, np.zeros(3), cov, CHI2_95, 1.0), 1.0 + 10.0 * root
+    )
+    sideways = np.array([[20.0 * root / 2.0, 0.0, 0.0]])  # half way out along x
+    np.testing.assert_allclose(
+        region_intrusion_m(sideways, np.zeros(3), cov, CHI2_95, 1.0), 1.0 + 10.0 * root / 2.0
+    )
+    outside = np.array([[0.0, 0.0, 10.0 * root + 0.5], [0.0, 0.0, 10.0 * root + 5.0]])
+    np.testing.assert_allclose(
+        region_intrusion_m(outside, np.zeros(3), cov, CHI2_95, 1.0), [0.5, 0.0], atol=1e-12
+    )
 
 
 def _surface_points(cov: FloatArray, chi2: float, n: int = 200_000) -> FloatArray:
