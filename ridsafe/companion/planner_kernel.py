@@ -77,6 +77,7 @@ from ridsafe.companion.ramp_kernel import (
     rollout_into,
     velocity_ramp,
 )
+from ridsafe.companion.region_kernel import horizontal_depth, region_signed_distance
 from ridsafe.companion.value import source_coefficient
 
 __all__ = ["KernelParams", "Regions", "score_all", "score_bounded"]
@@ -420,36 +421,6 @@ def _hazard_at(
     return min(h, h_region), d2, intruded
 
 
-@jit_inline
-def _region_signed_distance(
-    x: float, y: float, z: float, c: FloatArray, pinv: FloatArray, sigma: float, sqrt_chi2: float
-) -> float:
-    """Value eq. 4 for one point against one (already predicted) region, before its clamp at
-    0: negative inside the ellipsoid."""
-    dx, dy, dz = x - c[0], y - c[1], z - c[2]
-    m = (
-        pinv[0, 0] * dx * dx
-        + pinv[1, 1] * dy * dy
-        + pinv[2, 2] * dz * dz
-        + 2.0 * (pinv[0, 1] * dx * dy + pinv[0, 2] * dx * dz + pinv[1, 2] * dy * dz)
-    )
-    return sigma * (math.sqrt(max(m, 0.0)) - sqrt_chi2)
-
-
-@jit_inline
-def _horizontal_depth(
-    x: float, y: float, c: FloatArray, pinv: FloatArray, sigma: float, sqrt_chi2: float
-) -> float:
-    """sigma (sqrt(chi2) - sqrt(m_h)), >= 0: how deep (x, y) lies in the region's horizontal
-    marginal, whose precision is the Schur complement of P^-1's vertical entry."""
-    dx, dy = x - c[0], y - c[1]
-    a = pinv[0, 0] - pinv[0, 2] * pinv[2, 0] / pinv[2, 2]
-    b = pinv[0, 1] - pinv[0, 2] * pinv[2, 1] / pinv[2, 2]
-    e = pinv[1, 1] - pinv[1, 2] * pinv[2, 1] / pinv[2, 2]
-    m_h = a * dx * dx + 2.0 * b * dx * dy + e * dy * dy
-    return sigma * max(0.0, sqrt_chi2 - math.sqrt(max(m_h, 0.0)))
-
-
 @jit
 def _near_neighbours(
     p0: FloatArray,
@@ -577,11 +548,11 @@ def _region_hazard(
     center, pinv, sigma, sqrt_chi2, threshold = regions
     h, intrusion = 0.0, 0.0
     for r in range(center.shape[0]):
-        s = _region_signed_distance(x, y, z, center[r, k], pinv[r, k], sigma[r, k], sqrt_chi2[r])
+        s = region_signed_distance(x, y, z, center[r, k], pinv[r, k], sigma[r, k], sqrt_chi2[r])
         if s >= 0.0:
             intrusion += max(0.0, threshold[r] - s)
         else:  # inside: the horizontal depth too (value.region_intrusion_m)
-            depth = _horizontal_depth(x, y, center[r, k], pinv[r, k], sigma[r, k], sqrt_chi2[r])
+            depth = horizontal_depth(x, y, center[r, k], pinv[r, k], sigma[r, k], sqrt_chi2[r])
             intrusion += threshold[r] + depth
         d = max(0.0, s)
         if d < kp.region_gate:
