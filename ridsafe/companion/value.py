@@ -87,13 +87,23 @@ def region_signed_distance_m(
 
     ``cov_m2 : (3, 3)`` must be symmetric positive definite.
     """
-    x = np.asarray(x_m, dtype=np.float64)
+    delta, cov, sigma_min = _region_frame(x_m, center_m, cov_m2)
+    return _beyond_surface_m(mahalanobis2(delta, cov), sigma_min, chi2)
+
+
+def _region_frame(
+    x_m: ArrayLike, center_m: ArrayLike, cov_m2: ArrayLike
+) -> tuple[FloatArray, FloatArray, float]:
+    """(offsets from the centre, the covariance, sqrt of its smallest eigenvalue)."""
     cov = np.asarray(cov_m2, dtype=np.float64)
-    delta = x - np.asarray(center_m, dtype=np.float64)
-    m = mahalanobis2(delta, cov)
-    sigma_min = float(np.sqrt(np.linalg.eigvalsh(cov)[0]))
-    signed: FloatArray = sigma_min * (np.sqrt(np.maximum(m, 0.0)) - np.sqrt(chi2))
-    return signed
+    delta = np.asarray(x_m, dtype=np.float64) - np.asarray(center_m, dtype=np.float64)
+    return delta, cov, float(np.sqrt(np.linalg.eigvalsh(cov)[0]))
+
+
+def _beyond_surface_m(m: FloatArray, sigma_min: float, chi2: float) -> FloatArray:
+    """sigma_min (sqrt(m) - sqrt(chi2)) for Mahalanobis^2 values ``m``: < 0 inside."""
+    beyond: FloatArray = sigma_min * (np.sqrt(np.maximum(m, 0.0)) - np.sqrt(chi2))
+    return beyond
 
 
 def region_distance_m(
@@ -118,13 +128,10 @@ def region_intrusion_m(
     2 x 2 block). Horizontal because the way out of a region that spans the altitude band is
     sideways: a vertical exit counts once it is made (the sample is outside).
     """
-    x = np.asarray(x_m, dtype=np.float64)
-    cov = np.asarray(cov_m2, dtype=np.float64)
-    signed = region_signed_distance_m(x, center_m, cov, chi2)
-    delta = x - np.asarray(center_m, dtype=np.float64)
-    m_h = mahalanobis2(delta[..., :2], cov[:2, :2])
-    sigma_min = float(np.sqrt(np.linalg.eigvalsh(cov)[0]))
-    depth = sigma_min * np.maximum(0.0, np.sqrt(chi2) - np.sqrt(np.maximum(m_h, 0.0)))
+    delta, cov, sigma_min = _region_frame(x_m, center_m, cov_m2)
+    signed = _beyond_surface_m(mahalanobis2(delta, cov), sigma_min, chi2)
+    m_h = mahalanobis2(delta[..., :2], cov[:2, :2])  # under the horizontal marginal
+    depth = np.maximum(0.0, -_beyond_surface_m(m_h, sigma_min, chi2))
     intrusion: FloatArray = np.where(
         signed >= 0.0, np.maximum(0.0, threshold_m - signed), threshold_m + depth
     )
