@@ -143,6 +143,14 @@ def test_paper_mode_flies_the_same_scenarios_as_paper() -> None:
     assert paper_mode.scenario.radio == paper.scenario.radio
 
 
+def test_the_default_config_draws_from_the_paper_family() -> None:
+    """`ridsafe run --aircraft N` (and bench_lockstep) fly the family the paper's sweeps fly:
+    beyond 16 aircraft on a larger world, not a fuller sky."""
+    default, paper = load_scenario_file(), load_scenario_file("configs/paper.yaml")
+    assert default.family == paper.family
+    assert default.family is not None and default.family.tile_capacity == 16
+
+
 def test_cruise_altitude_by_heading_layers_the_traffic_and_keeps_the_draws() -> None:
     """Two layers: trips heading into the eastern half-plane of bearings (0-180 deg from east,
     counter-clockwise: northward) cruise at the first altitude, the others at the second;
