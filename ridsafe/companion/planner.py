@@ -45,7 +45,8 @@ descend. Within
 ``arrival_radius_m`` (3-D) the aircraft is *arrived* (latched) and holds the goal (or lands)
 unless an unsafe region engulfs it; then it evades and comes back. A progress watchdog reports
 ``STUCK`` (and logs a warning once) when the aircraft has not come ``stuck_progress_m`` closer
-to its goal than ever before for ``stuck_after_s``; it keeps flying its best action meanwhile.
+to its goal than ever before for ``stuck_after_s`` (counted afresh when the goal changes); it
+keeps flying its best action meanwhile.
 
 Deterministic: no randomness; ties between equal rollouts go to the right-hand turn.
 """
@@ -115,7 +116,8 @@ TRUST_RID = RidPolicy("trust-rid", use_regions=False, trust_flagged=True)
 @dataclass
 class ProgressWatchdog:
     """Says "stuck" once the distance to the goal has not beaten its best by ``progress_m``
-    for ``after_s`` seconds."""
+    for ``after_s`` seconds. A new goal starts the count afresh: the best distance to the
+    point over a delivery site says nothing of the descent to the ground under it."""
 
     after_s: float
     progress_m: float
@@ -123,9 +125,12 @@ class ProgressWatchdog:
     best_m: float = math.inf
     since_s: float | None = None
     stuck: bool = False
+    goal_ned_m: Vec3 | None = None  # the goal best_m was measured to
 
-    def update(self, now_s: float, distance_m: float) -> bool:
-        """Record the distance to the goal at ``now_s``; True while stuck."""
+    def update(self, now_s: float, goal_ned_m: Vec3, distance_m: float) -> bool:
+        """Record the distance to ``goal_ned_m`` at ``now_s``; True while stuck."""
+        if goal_ned_m != self.goal_ned_m:
+            self.goal_ned_m, self.since_s = goal_ned_m, None
         if self.since_s is None or distance_m <= self.best_m - self.progress_m:
             self.best_m, self.since_s = distance_m, now_s
         was_stuck = self.stuck
@@ -255,7 +260,7 @@ class FastMdpPlanner:
         if self.arrived and (scores.intrusion_m[hover] <= 0.0 or -p0[2] <= cfg.min_altitude_m):
             return self._arrival_decision(goal, scene)
         index, status, value = choose_action(scores, actions, cfg)
-        stuck = self._watchdog.update(planner_input.t_s, distance)
+        stuck = self._watchdog.update(planner_input.t_s, planner_input.goal_ned_m, distance)
         horizontal_m = float(np.hypot(*(goal - p0)[:2]))
         descent = cfg.approach_descent and planner_input.descend_to_goal
         if cfg.approach_level and planner_input.goal_any_height:

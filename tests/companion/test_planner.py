@@ -345,14 +345,28 @@ def test_no_straight_descent_past_an_aircraft_beside_the_column() -> None:
 
 def test_watchdog_reports_and_logs_lack_of_progress(caplog: pytest.LogCaptureFixture) -> None:
     dog = ProgressWatchdog(after_s=30.0, progress_m=10.0)
+    goal = (100.0, 0.0, -50.0)
     with caplog.at_level(logging.WARNING, logger="ridsafe.companion.planner"):
-        assert not dog.update(0.0, 500.0)
-        assert not dog.update(20.0, 480.0)  # progress: the clock restarts
-        assert not dog.update(45.0, 475.0)  # 5 m is not progress, but only 25 s
-        assert dog.update(50.0, 476.0)
-        assert dog.update(55.0, 476.0)
+        assert not dog.update(0.0, goal, 500.0)
+        assert not dog.update(20.0, goal, 480.0)  # progress: the clock restarts
+        assert not dog.update(45.0, goal, 475.0)  # 5 m is not progress, but only 25 s
+        assert dog.update(50.0, goal, 476.0)
+        assert dog.update(55.0, goal, 476.0)
     assert len([r for r in caplog.records if "no progress" in r.message]) == 1
-    assert not dog.update(56.0, 460.0)
+    assert not dog.update(56.0, goal, 460.0)
+
+
+def test_watchdog_counts_afresh_for_a_new_goal() -> None:
+    """Over its site the aircraft's goal becomes the ground under it, 50 m further than the
+    best it came to the point over it: a descent is not a lack of progress."""
+    dog = ProgressWatchdog(after_s=30.0, progress_m=10.0)
+    over_site, ground = (100.0, 0.0, -50.0), (100.0, 0.0, 0.0)
+    assert not dog.update(0.0, over_site, 400.0)
+    assert not dog.update(50.0, over_site, 5.0)
+    assert not dog.update(51.0, ground, 55.0)
+    assert not dog.update(80.0, ground, 50.0)  # 5 m in 29 s: not yet 30 s without progress
+    assert dog.update(81.0, ground, 50.0)  # 30 s since the new goal's first distance
+    assert not dog.update(82.0, ground, 40.0)
 
 
 def test_a_planner_that_goes_nowhere_says_stuck() -> None:
