@@ -6,11 +6,13 @@ the planners people fly (aware first) at 16 and 64 aircraft.
                                    [--repeat 3] [--tick S] [--duration S] [--serial]
                                    [--by-tick]
 
-Each repetition is a fresh Python process timing one ``run_lockstep`` call, as
-``ridsafe run --mode lockstep`` makes it: building the cores (the numba kernels load from
-their cache), the flight (on two processes where the machine has two CPUs: this one steps the
-sim and half the companions, a forked worker the GCS and the other half;
-``tools/run/lockstep_split.py``), and the log written and closed (by the recorder's own
+The scenario is ``configs/default.yaml``'s family drawn for N aircraft (seed 0): beyond 16
+aircraft on copies of its square kilometre, so 64 fly 2 km x 2 km with 12 depots, as the
+paper's sweeps fly them. Each repetition is a fresh Python process timing one
+``run_lockstep`` call, as ``ridsafe run --mode lockstep`` makes it: building the cores (the
+numba kernels load from their cache), the flight (on two processes where the machine has
+two CPUs: this one steps the sim and half the companions, a forked worker the GCS and the
+other half; ``tools/run/lockstep_split.py``), and the log written and closed (by the recorder's own
 process). Interpreter start and imports are not counted. The machine is shared, so one run
 can be 10 % off; the verdict uses the median of the repetitions. Each run also reports the CPU
 time of all its processes (this one, the worker and the recorder; ``time.process_time`` and
