@@ -269,5 +269,7 @@ def test_sigterm_ends_the_gcs_cleanly_with_its_log_closed(tmp_path: Path) -> Non
         proc.wait()
     records = list(read_records(log))
     cycles = [t for topic, t, _ in records if topic == topics.GCS_CYCLE]
-    assert len(cycles) >= 2 and cycles[1] == pytest.approx(0.25, abs=0.05)
+    # 4 Hz: every cycle on the 0.25 s grid (a loaded host may skip one, never shift one)
+    assert len(cycles) >= 2
+    assert all(t == pytest.approx(0.25 * round(t / 0.25), abs=0.05) for t in cycles[1:])
     assert records[-1][0] == topics.APP_COUNTERS  # the final counters made it to the file
