@@ -413,9 +413,8 @@ class ObservationRows:
     @classmethod
     def of(cls, observations: Sequence[Observation]) -> ObservationRows:
         """The rows of ``observations``, in order."""
-        values = np.array(
-            [[math.nan if v is None else v for v in _OBSERVATION_FLOATS(o)] for o in observations],
-            dtype=np.float64,
+        values = np.array(  # numpy makes None NaN in a float array
+            [_OBSERVATION_FLOATS(o) for o in observations], dtype=np.float64
         ).reshape(len(observations), len(OBSERVATION_COLUMNS))
         values.setflags(write=False)
         return cls(values, tuple(o.uas_id for o in observations))

@@ -145,14 +145,14 @@ class Companion:
         for message in rid_due:
             self.shell.send(AUTOPILOT, message)
         self.observations.hear(self.receiver.poll(now_s))
-        self.observations.report(now_s, self.own, self.gcs_seen, self._to_gcs, self.sink)
+        self.observations.report(now_s, self.own, self.gcs_seen, self._reports_to_gcs, self.sink)
         self.pilot.step(now_s, self.mission, self.neighbours, self.regions, self._to_autopilot)
         self._periodic(now_s)
         return self.shell.flush()
 
     def finish(self, now_s: float) -> Datagrams:
         """At the end of a run: send what is still batched and log the counters."""
-        self.observations.finish(now_s, self.own, self.gcs_seen, self._to_gcs, self.sink)
+        self.observations.finish(now_s, self.own, self.gcs_seen, self._reports_to_gcs, self.sink)
         self._log_counters(now_s)
         return self.shell.flush()
 
@@ -231,8 +231,8 @@ class Companion:
         elif not isinstance(msg, m.Heartbeat | m.CommandAck):
             self.receiver.on_transponder(now_s, msg)
 
-    def _to_gcs(self, message: m.Message) -> None:
-        self.shell.send(GCS, message)
+    def _reports_to_gcs(self, messages: list[m.Message]) -> None:
+        self.shell.send_all(GCS, messages)
 
     def _to_autopilot(self, message: m.Message) -> None:
         self.shell.send(AUTOPILOT, message)

@@ -167,8 +167,8 @@ def batch_record(sysid: int, batch: Iterable[m.Observation]) -> dict[str, object
     return {"sysid": sysid, "items": items}
 
 
-#: Sends a report message to the GCS (an ``ObservationPack``).
-SendObservation = Callable[[m.Message], None]
+#: Sends report messages to the GCS (``ObservationPack``), in order.
+SendObservation = Callable[[list[m.Message]], None]
 
 
 class ObservationReporter:
@@ -234,8 +234,12 @@ class ObservationReporter:
         if not gcs_seen:
             self.counters.sent_before_gcs_seen += len(batch)
         per_pack = codec.OBSERVATIONS_PER_PACK
-        for i in range(0, len(batch), per_pack):
-            send(m.ObservationPack(tuple(batch[i : i + per_pack])))
+        send(
+            [
+                m.ObservationPack(tuple(batch[i : i + per_pack]))
+                for i in range(0, len(batch), per_pack)
+            ]
+        )
         sink.log(topics.OBSERVATIONS, own.sim_time(now_s), batch_record(self.sysid, batch))
 
     def _locations(self, heard: HeardRidFrame) -> list[m.OdidLocation]:

@@ -138,6 +138,72 @@ def test_an_observation_pack_decodes_to_what_its_reports_decode_to_one_by_one(
     assert got.observations() == [_round_trip(o) for o in sent]
 
 
+#: Any float a report could hold: ordinary values, ties of the roundings, values beyond
+#: their fields, NaN and infinities.
+_any_float = st.one_of(
+    st.floats(-200.0, 200.0),
+    st.sampled_from([0.5, 2.5, -0.5, 5e-8, 1.5e-7, 0.005, 359.995, -0.005, 254.255, 3.4028235e38]),
+    st.floats(allow_nan=True, allow_infinity=True),
+)
+_report = st.builds(
+    m.Observation,
+    *[_any_float] * 9,
+    *[st.none() | _any_float] * 3,
+    uas_id=st.sampled_from(["RSAF800000001", "", "A" * 20, "A" * 21, "\u00e9"]),
+)
+
+
+def _each_encoded(packs: list[m.ObservationPack]) -> list[codec.Payload] | None:
+    try:
+        return [codec.encode_payload(pack) for pack in packs]
+    except (WireError, struct.error, ValueError, OverflowError):
+        return None
+
+
+@settings(max_examples=400)
+@given(packs=st.lists(st.lists(_report, min_size=1, max_size=3), min_size=1, max_size=4))
+def test_a_batch_of_packs_encodes_to_the_bytes_of_each_pack_encoded_alone(
+    packs: list[list[m.Observation]],
+) -> None:
+    """``encode_payloads``' compiled pass: the same bytes as ``encode_payload`` pack by pack,
+    and an error where that raises one."""
+    sent = [m.ObservationPack(tuple(reports)) for reports in packs]
+    alone = _each_encoded(sent)
+    if alone is None:
+        with pytest.raises((WireError, struct.error, ValueError, OverflowError)):
+            codec.encode_payloads(sent)
+    else:
+        assert codec.encode_payloads(sent) == alone
+
+
+def test_a_batch_of_ordinary_packs_takes_the_compiled_pass() -> None:
+    """So the equality above is the compiled pass's, not the fallback's with itself."""
+    rng = random.Random(5)
+    reports = [
+        m.Observation(rng.uniform(0, 120), 36.1, -86.8, 230.0 + k, 36.1, -86.8, 240.0, 1799.5,
+                      rng.uniform(-95, -40), rng.choice([None, 359.996, 12.345]), 5.0, -1.0,
+                      f"RSAF8000000{k:02d}")
+        for k in range(7)
+    ]  # fmt: skip
+    packs = [m.ObservationPack(tuple(reports[i : i + 3])) for i in range(0, 7, 3)]
+    payloads = codec.observation_pack_payloads(packs)
+    assert payloads is not None
+    assert payloads == [codec.encode_payload(pack).data for pack in packs]
+
+
+def test_a_report_with_a_course_or_speed_not_finite_goes_with_them_unknown() -> None:
+    report = m.Observation(
+        1.0, 36.1, -86.8, 200.0, 36.1, -86.8, 210.0, 1.0, -70.0, math.nan, math.inf, -math.inf, "A"
+    )
+    unknown = m.Observation(
+        1.0, 36.1, -86.8, 200.0, 36.1, -86.8, 210.0, 1.0, -70.0, None, None, None, "A"
+    )
+    assert _round_trip(report) == _round_trip(unknown)
+    assert codec.encode_payloads([m.ObservationPack((report,))]) == [
+        codec.encode_payload(m.ObservationPack((unknown,)))
+    ]
+
+
 def test_an_observation_pack_of_none_or_four_is_refused_on_the_way_out() -> None:
     report = m.Observation(
         1.0, 36.1, -86.8, 200.0, 36.1, -86.8, 210.0, 1.0, -70.0, 0.0, 1.0, 0.0, "A"

@@ -60,10 +60,11 @@ class _Sent:
         self.observations: list[m.Observation] = []
         self.packs = 0
 
-    def __call__(self, message: m.Message) -> None:
-        assert isinstance(message, m.ObservationPack) and 1 <= len(message.observations) <= 3
-        self.observations.extend(message.observations)
-        self.packs += 1
+    def __call__(self, messages: list[m.Message]) -> None:
+        for message in messages:
+            assert isinstance(message, m.ObservationPack) and 1 <= len(message.observations) <= 3
+            self.observations.extend(message.observations)
+            self.packs += 1
 
 
 def _reporter(period_s: float = 0.25) -> ObservationReporter:

@@ -26,7 +26,7 @@ This package re-exports the names the apps use, so ``codec.MavlinkLink`` is the 
 from ridsafe.common.codec.fields import message_from_fields, odid_fields
 from ridsafe.common.codec.link import LinkCounters, MavlinkLink, Received, warm_up_columnar
 from ridsafe.common.codec.registry import from_mavlink, to_mavlink
-from ridsafe.common.codec.ridsafe_messages import OBSERVATIONS_PER_PACK
+from ridsafe.common.codec.ridsafe_messages import OBSERVATIONS_PER_PACK, observation_pack_payloads
 from ridsafe.common.codec.signing import (
     SIGNING_EPOCH_UNIX_S,
     ReplayWindow,
@@ -43,7 +43,7 @@ from ridsafe.common.codec.units import (
     ODID_UNKNOWN_SPEED_V_CMS,
     ODID_UNKNOWN_TIMESTAMP_S,
 )
-from ridsafe.common.codec.wire import Payload, encode_payload, x25_crc
+from ridsafe.common.codec.wire import Payload, encode_payload, encode_payloads, x25_crc
 
 __all__ = [
     "DEG_E7",
@@ -62,9 +62,11 @@ __all__ = [
     "ReplayWindow",
     "SigningConfig",
     "encode_payload",
+    "encode_payloads",
     "from_mavlink",
     "load_signing_key",
     "message_from_fields",
+    "observation_pack_payloads",
     "odid_fields",
     "signing_timestamp_from_unix",
     "to_mavlink",

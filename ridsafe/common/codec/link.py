@@ -12,6 +12,7 @@ logged, counted in ``LinkCounters`` and dropped, and parsing goes on with the ne
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -29,6 +30,7 @@ from ridsafe.common.codec.wire import (
     Layout,
     Payload,
     encode_payload,
+    encode_payloads,
     layout,
     x25_crc,
 )
@@ -180,7 +182,13 @@ class MavlinkLink:
             self._signing.advance_to(start + int(elapsed_s * 100_000))
 
     def pack_all(self, messages: list[m.Message]) -> bytes:
-        return b"".join(self.pack(message) for message in messages)
+        return b"".join(self.pack_each(messages))
+
+    def pack_each(self, messages: Sequence[m.Message]) -> list[bytes]:
+        """``pack`` of each message, in order (``wire.encode_payloads``: a batch of
+        observation packs encoded together). Raises WireError, packing none, when one does
+        not fit."""
+        return self.frame_all(encode_payloads(messages))
 
     def feed(self, data: bytes, end_of_datagram: bool = True) -> list[Received]:
         """Parse bytes; return the accepted messages.

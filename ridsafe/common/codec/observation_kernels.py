@@ -1,6 +1,7 @@
 """RIDSAFE_OBSERVATION and RIDSAFE_OBSERVATION_PACK payloads decoded many at a time, compiled
 (``ridsafe_messages.observation_rows``, ``observation_pack_rows``): a GCS takes some 4,000
-reports a second at 64 aircraft.
+reports a second at 64 aircraft; and a companion's packs encoded a batch at a time
+(``ridsafe_messages.observation_pack_payloads``, ``encode_observation_packs``).
 
 The payloads come joined, each zero-padded to its message's stride (``RECORD_STRIDE``,
 ``PACK_STRIDE``) so that every field sits at an offset its size divides: the kernels read
@@ -57,8 +58,14 @@ PACK_OFFSETS = {
     "uas_id": 139,
 }
 _UNKNOWN_DIRECTION_ABOVE = 35999  # cdeg; ``_observation_from``'s None
+_UNKNOWN_DIRECTION_CDEG = 36100
 _UNKNOWN_SPEED_H_CMS = 25500
 _UNKNOWN_SPEED_V_CMS = 6300
+_MAX_SPEED_H_CMS = 25425
+#: A claimed id's bytes on the wire (NUL padded).
+ID_LEN = 20
+_PACK_COUNT = PACK_OFFSETS["count"]
+_PACK_IDS = PACK_OFFSETS["uas_id"]
 
 
 @jit_inline
@@ -144,3 +151,86 @@ def decode_observation_packs(
                 ok = False
             r += 1
     return ok
+
+
+@jit_inline
+def _fits_f32(value: float) -> bool:
+    """``struct``'s ``f`` packs it: a finite value whose float32 is not infinite, or a
+    non-finite one."""
+    return not (np.isinf(np.float32(value)) and not np.isinf(value))
+
+
+@jit_inline
+def _course_and_speeds(row: NDArray[np.float64]) -> tuple[bool, int, int, int]:
+    """(they fit, course cdeg, ground speed cm/s, vertical speed cm/s) as ``_observation_to``
+    encodes a report's last three columns: unknown where NaN or infinite."""
+    course, speed_h, speed_v = (
+        np.rint(row[9] * 100.0),
+        np.rint(row[10] * 100.0),
+        np.rint(row[11] * 100.0),
+    )
+    course_cdeg, speed_h_cms, speed_v_cms = (
+        _UNKNOWN_DIRECTION_CDEG,
+        _UNKNOWN_SPEED_H_CMS,
+        _UNKNOWN_SPEED_V_CMS,
+    )
+    if np.isfinite(course):
+        if not abs(course) < 2.0**62:
+            return False, 0, 0, 0
+        course_cdeg = int(course) % 36000
+    if np.isfinite(speed_h):
+        if speed_h < 0.0:  # a uint16
+            return False, 0, 0, 0
+        speed_h_cms = int(min(speed_h, _MAX_SPEED_H_CMS))
+    if np.isfinite(speed_v):
+        speed_v_cms = int(max(-32768.0, min(32767.0, speed_v)))
+    return True, course_cdeg, speed_h_cms, speed_v_cms
+
+
+@jit
+def encode_observation_packs(
+    values: NDArray[np.float64],
+    ids: NDArray[np.uint8],
+    counts: NDArray[np.int64],
+    out: NDArray[np.uint8],
+) -> bool:
+    """Fill ``out`` (zeros, ``PACK_STRIDE`` bytes per pack) with the RIDSAFE_OBSERVATION_PACK
+    payloads of the reports ``values`` (one row each, ``messages.OBSERVATION_COLUMNS``, NaN
+    for an unknown course or speed) with the claimed ids ``ids`` (``ID_LEN`` bytes a row),
+    ``counts[p]`` of them in pack p, each value converted as ``_observation_to`` converts it
+    (Python's ``round`` is half to even, as ``np.rint``). False when a value does not fit
+    its field, where ``struct`` would refuse it (``out`` is then partly written)."""
+    u64, i32, f32 = out.view(np.uint64), out.view(np.int32), out.view(np.float32)
+    u16, i16 = out.view(np.uint16), out.view(np.int16)
+    r = 0
+    for p in range(counts.shape[0]):
+        base = p * PACK_STRIDE
+        w4, w2 = base // 4, base // 2
+        out[base + _PACK_COUNT] = counts[p]
+        for k in range(counts[p]):
+            row = values[r]
+            t_us = np.rint(row[0] * 1e6)
+            if not (np.isfinite(t_us) and t_us < 2.0**64):
+                return False
+            u64[base // 8 + k] = np.uint64(max(t_us, 0.0))
+            for word, column in ((6, 1), (9, 2), (15, 4), (18, 5)):  # latitudes, longitudes
+                e7 = np.rint(row[column] * 1e7)
+                if not -(2.0**31) <= e7 < 2.0**31:
+                    return False
+                i32[w4 + word + k] = np.int32(e7)
+            for word, column in ((12, 3), (21, 6), (24, 7), (27, 8)):  # altitudes, time, RSSI
+                if not _fits_f32(row[column]):
+                    return False
+                f32[w4 + word + k] = np.float32(row[column])
+            fits, course_cdeg, speed_h_cms, speed_v_cms = _course_and_speeds(row)
+            if not fits:
+                return False
+            u16[w2 + 60 + k], u16[w2 + 63 + k], i16[w2 + 66 + k] = (
+                course_cdeg,
+                speed_h_cms,
+                speed_v_cms,
+            )
+            first_id = base + _PACK_IDS + ID_LEN * k
+            out[first_id : first_id + ID_LEN] = ids[ID_LEN * r : ID_LEN * (r + 1)]
+            r += 1
+    return True

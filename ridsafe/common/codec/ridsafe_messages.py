@@ -7,6 +7,7 @@ and RIDSAFE_SPOOF_ALERT come down; the LOCKSTEP pair paces a lockstep run over U
 
 from __future__ import annotations
 
+import math
 import re
 import struct
 from collections.abc import Sequence
@@ -71,9 +72,10 @@ def _rid_frame_from(raw: Any) -> m.RidFrameReport:
 
 
 def _observation_to(msg: m.Observation) -> Wire:
-    course = msg.claimed_course_deg
-    speed_h = msg.claimed_speed_horizontal_m_s
-    speed_v = msg.claimed_speed_vertical_m_s
+    """A report's fields; a course or speed that is None or not finite goes as unknown."""
+    course = _finite_or_none(msg.claimed_course_deg)
+    speed_h = _finite_or_none(msg.claimed_speed_horizontal_m_s)
+    speed_v = _finite_or_none(msg.claimed_speed_vertical_m_s)
     return wire(
         mav.MAVLink_ridsafe_observation_message,
         us(msg.t_s),
@@ -90,6 +92,10 @@ def _observation_to(msg: m.Observation) -> Wire:
         ODID_UNKNOWN_SPEED_V_CMS if speed_v is None else cms(speed_v),
         uas_id_bytes(msg.uas_id),
     )
+
+
+def _finite_or_none(value: float | None) -> float | None:
+    return value if value is not None and math.isfinite(value) else None
 
 
 def _observation_from(raw: Any) -> m.Observation:
@@ -225,6 +231,43 @@ def _observation_pack_to(msg: m.ObservationPack) -> Wire:
     rows += [_UNUSED_ROW] * (OBSERVATIONS_PER_PACK - n)
     *columns, ids = zip(*rows, strict=True)  # per field, its three values
     return wire(_PACK, *columns, n, b"".join(uas.ljust(ODID_ID_LEN, b"\x00") for uas in ids))
+
+
+#: Claimed ids -> their bytes as a pack carries them (NUL padded), for the batch encoding.
+_ID_BYTES: dict[str, bytes] = {}
+
+
+def observation_pack_payloads(packs: Sequence[m.ObservationPack]) -> list[bytes] | None:
+    """The payloads of RIDSAFE_OBSERVATION_PACK messages (as framed: trailing zeros trimmed),
+    encoded together: each the bytes ``_observation_pack_to`` gives its pack (a companion
+    sends a second's reports of the fleet, some 60 to 130, in one go). None when a pack is
+    one that encoding refuses or a value does not fit its field: the caller then encodes them
+    one by one, which says which and why."""
+    counts = [len(pack.observations) for pack in packs]
+    if not all(1 <= count <= OBSERVATIONS_PER_PACK for count in counts):
+        return None
+    observations = [o for pack in packs for o in pack.observations]
+    try:
+        ids = b"".join([_ID_BYTES.get(o.uas_id) or _id_bytes(o.uas_id) for o in observations])
+    except (WireError, UnicodeEncodeError):
+        return None
+    values = m.ObservationRows.of(observations).values
+    stride = observation_kernels.PACK_STRIDE
+    buf = np.zeros(len(packs) * stride, dtype=np.uint8)
+    if not observation_kernels.encode_observation_packs(
+        values, np.frombuffer(ids, np.uint8), np.array(counts, dtype=np.int64), buf
+    ):
+        return None
+    raw, size = buf.tobytes(), _PACK.unpacker.size
+    return [raw[i : i + size].rstrip(b"\x00") or raw[i : i + 1] for i in range(0, len(raw), stride)]
+
+
+def _id_bytes(uas_id: str) -> bytes:
+    padded = uas_id_bytes(uas_id).ljust(ODID_ID_LEN, b"\x00")
+    if len(_ID_BYTES) >= _ID_TEXT_SIZE:
+        _ID_BYTES.clear()
+    _ID_BYTES[uas_id] = padded
+    return padded
 
 
 def _observation_pack_from(raw: Any) -> m.ObservationRows:

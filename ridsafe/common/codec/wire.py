@@ -23,7 +23,7 @@ import operator
 import struct
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, cast
 
 from ridsafe.common import messages as m
 from ridsafe.common.codec.registry import (
@@ -34,6 +34,7 @@ from ridsafe.common.codec.registry import (
     wire_struct,
     wire_values,
 )
+from ridsafe.common.codec.ridsafe_messages import observation_pack_payloads
 from ridsafe.common.codec.units import FromMav
 from ridsafe.common.dialect import ridsafe_v20 as mav
 
@@ -69,6 +70,21 @@ def encode_payload(message: m.Message) -> Payload:
     if type(message) is m.RidFrameReport:
         return _rid_frame_payload(message)
     return _encoded(message)
+
+
+_PACK = mav.MAVLink_ridsafe_observation_pack_message
+
+
+def encode_payloads(messages: Sequence[m.Message]) -> list[Payload]:
+    """``encode_payload`` of each message, in order (raises WireError as it does). A list of
+    observation packs (a companion's batch of reports) is encoded in one compiled pass
+    (``ridsafe_messages.observation_pack_payloads``), to the same bytes."""
+    if messages and all(type(message) is m.ObservationPack for message in messages):
+        datas = observation_pack_payloads(cast("Sequence[m.ObservationPack]", messages))
+        if datas is not None:
+            crc_extra = _CRC_EXTRA_BYTE[_PACK.crc_extra]
+            return [Payload(_PACK.id, crc_extra, data) for data in datas]
+    return [encode_payload(message) for message in messages]
 
 
 def _encoded(message: m.Message) -> Payload:
