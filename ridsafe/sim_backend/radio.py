@@ -31,7 +31,6 @@ bit-identical to one before they existed.
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -49,7 +48,14 @@ from ridsafe.common.scenario import RadioConfig
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["CorrelatedShadowing", "RadioChannel", "Reception", "Transmission", "body_z_axis"]
+__all__ = [
+    "CorrelatedShadowing",
+    "RadioChannel",
+    "Reception",
+    "Receptions",
+    "Transmission",
+    "body_z_axis",
+]
 
 
 @dataclass(frozen=True, slots=True)
@@ -67,6 +73,44 @@ class Reception:
     receiver: int
     transmission: Transmission
     rssi_dbm: float
+
+
+@dataclass(frozen=True)
+class Receptions:
+    """Receptions as columns, in delivery order (by transmission, then receiver): reception
+    i is of transmission ``transmission[i]`` (its index in the list delivered) by vehicle
+    index ``receiver[i]`` at ``rssi_dbm[i]``."""
+
+    transmission: NDArray[np.int64]
+    receiver: NDArray[np.int64]
+    rssi_dbm: FloatArray
+
+    @classmethod
+    def join(
+        cls, receivers_of: Sequence[NDArray[np.int64]], rssi_of: Sequence[FloatArray]
+    ) -> Receptions:
+        """Transmission k's receivers and strengths (``receivers_of[k]``, ``rssi_of[k]``), one
+        after another."""
+        counts = [len(receivers) for receivers in receivers_of]
+        return cls(
+            np.repeat(np.arange(len(counts), dtype=np.int64), counts),
+            np.concatenate([np.zeros(0, np.int64), *receivers_of]).astype(np.int64),
+            np.concatenate([np.zeros(0), *rssi_of]),
+        )
+
+    def __len__(self) -> int:
+        return int(self.receiver.shape[0])
+
+    def receptions(self, transmissions: Sequence[Transmission]) -> list[Reception]:
+        """One ``Reception`` each, of the ``transmissions`` these were delivered from."""
+        return list(
+            map(
+                Reception,
+                self.receiver.tolist(),
+                [transmissions[k] for k in self.transmission.tolist()],
+                self.rssi_dbm.tolist(),
+            )
+        )
 
 
 def body_z_axis(euler_rad: FloatArray) -> FloatArray:
@@ -197,8 +241,18 @@ class RadioChannel:
     ) -> list[Reception]:
         """Receptions of ``transmissions`` given every vehicle's position ``(N, 3)`` now (and
         attitude ``(N, 3)`` roll, pitch, yaw in rad, for antenna patterns; None: level)."""
+        return self.deliver_columns(transmissions, p_enu_m, euler_rad).receptions(transmissions)
+
+    def deliver_columns(
+        self,
+        transmissions: Sequence[Transmission],
+        p_enu_m: FloatArray,
+        euler_rad: FloatArray | None = None,
+    ) -> Receptions:
+        """``deliver``'s receptions as columns (the same draws, in the same order)."""
         cfg = self.config
-        receptions: list[Reception] = []
+        receivers_of: list[NDArray[np.int64]] = []
+        rssi_of: list[FloatArray] = []
         n = p_enu_m.shape[0]
         for tx in transmissions:
             rssi = self.mean_rssi_dbm(tx.sender, p_enu_m, euler_rad)
@@ -218,7 +272,6 @@ class RadioChannel:
             if cfg.rssi_resolution_db > 0.0:
                 rssi = np.round(rssi / cfg.rssi_resolution_db) * cfg.rssi_resolution_db
             receivers = np.flatnonzero(ok)
-            receptions.extend(
-                map(Reception, receivers.tolist(), itertools.repeat(tx), rssi[receivers].tolist())
-            )
-        return receptions
+            receivers_of.append(receivers)
+            rssi_of.append(rssi[receivers])
+        return Receptions.join(receivers_of, rssi_of)

@@ -164,7 +164,7 @@ class Transponder:
         came off the air, whole, with its signal strength and the sender's radio id (one
         RIDSAFE_RID_FRAME; the companion reads the messages inside)."""
         self.counters.received += 1
-        return m.RidFrameReport(frame, rssi_dbm, sender_id, int(m.RidTransport.SIMULATED))
+        return heard_report(frame, sender_id, rssi_dbm)
 
     def arm_status(self, now_s: float) -> m.OdidArmStatus:
         missing = sorted(
@@ -179,3 +179,8 @@ class Transponder:
     def ready_error(self, now_s: float) -> str | None:
         status = self.arm_status(now_s)
         return status.error if status.status else None
+
+
+def heard_report(frame: bytes, sender_id: bytes, rssi_dbm: float) -> m.RidFrameReport:
+    """The report of a frame a simulated transponder heard (``Transponder.report``)."""
+    return m.RidFrameReport(frame, rssi_dbm, sender_id, int(m.RidTransport.SIMULATED))

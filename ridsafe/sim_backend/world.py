@@ -36,7 +36,7 @@ from ridsafe.common import codec, rng, topics
 from ridsafe.common import messages as m
 from ridsafe.common import protocol_messages as pm
 from ridsafe.common.adversary import AdversaryRole
-from ridsafe.common.errors import ClockError
+from ridsafe.common.errors import ClockError, WireError
 from ridsafe.common.logsink import LogSink, NullSink
 from ridsafe.common.scenario import Scenario
 from ridsafe.common.shell import (
@@ -57,9 +57,14 @@ from ridsafe.sim_backend.autopilot import (
 from ridsafe.sim_backend.config import SimConfig
 from ridsafe.sim_backend.dynamics import EULER, IDX_PSI, POS_ENU, STATE_SIZE, VEL_ENU
 from ridsafe.sim_backend.link_protocols import LINK_MESSAGES, LinkResponder, timesync_answer
-from ridsafe.sim_backend.radio import RadioChannel, Reception, Transmission
+from ridsafe.sim_backend.radio import RadioChannel, Reception, Receptions, Transmission
 from ridsafe.sim_backend.telemetry import FleetSnapshot, TelemetrySchedule
-from ridsafe.sim_backend.transponder import STATIC_PERIOD_S, TRANSPONDER_COMPONENT, Transponder
+from ridsafe.sim_backend.transponder import (
+    STATIC_PERIOD_S,
+    TRANSPONDER_COMPONENT,
+    Transponder,
+    heard_report,
+)
 from ridsafe.sim_backend.vehicles import OctorotorFleet
 
 logger = logging.getLogger(__name__)
@@ -184,7 +189,7 @@ class SimBackend:
             for i in range(self.n_vehicles)
         ]
         self.last_transmissions: list[Transmission] = []
-        self.last_receptions: list[Reception] = []
+        self.last_heard = Receptions.join([], [])  # the receptions of last_transmissions
         self._pending_air: list[Transmission] = []
         self._next_periodic_s = 0.0
         for adversary in self.adversaries.items:
@@ -292,15 +297,17 @@ class SimBackend:
                 for tx in self.last_transmissions
             ]
             self.sink.log(topics.RADIO_TX, now_s, {"items": items})
-        if self.last_receptions:
+        if len(self.last_heard):
+            heard = self.last_heard
+            of_tx = [(tx.sender + 1, tx.payload[0] >> 4) for tx in self.last_transmissions]
             received = [
-                {
-                    "sender": rx.transmission.sender + 1,
-                    "receiver": rx.receiver + 1,
-                    "msg_type": rx.transmission.payload[0] >> 4,
-                    "rssi_dbm": rx.rssi_dbm,
-                }
-                for rx in self.last_receptions
+                {"sender": of_tx[k][0], "receiver": r + 1, "msg_type": of_tx[k][1], "rssi_dbm": q}
+                for k, r, q in zip(
+                    heard.transmission.tolist(),
+                    heard.receiver.tolist(),
+                    heard.rssi_dbm.tolist(),
+                    strict=True,
+                )
             ]
             self.sink.log(topics.RADIO_RX, now_s, {"items": received})
         if now_s >= self._next_truth_log_s - 1e-9:
@@ -418,29 +425,64 @@ class SimBackend:
         positions = self.fleet.state[:, POS_ENU]
         euler_rad = self.fleet.state[:, EULER]
         if self.adversaries.has_random_power:
-            self.last_receptions = self._deliver_each(positions, euler_rad)
+            self.last_heard = self._deliver_each(positions, euler_rad)
         else:
-            self.last_receptions = self.radio.deliver(self.last_transmissions, positions, euler_rad)
-        transponders, companions = self.transponders, self._companion_ports
-        for rx in self.last_receptions:
-            sender = transponders[rx.transmission.sender]
-            report = transponders[rx.receiver].report(
-                rx.transmission.payload, sender.radio_id, rx.rssi_dbm
+            self.last_heard = self.radio.deliver_columns(
+                self.last_transmissions, positions, euler_rad
             )
-            port = companions[rx.receiver]
-            if port is not None:
-                self._send(port, report, transponder=True)
+        self._hand_over(self.last_transmissions, self.last_heard)
 
-    def _deliver_each(self, positions: FloatArray, euler_rad: FloatArray) -> list[Reception]:
+    def _hand_over(self, transmissions: list[Transmission], heard: Receptions) -> None:
+        """Each receiver's transponder reports what it heard to its companion, frame by frame
+        in the order heard: one RIDSAFE_RID_FRAME each, framed together per companion
+        (``MavlinkLink.frame_rid_reports``; the packets ``Transponder.report`` sent one by
+        one would make), or sent as messages where that cannot be."""
+        transponders, companions = self.transponders, self._companion_ports
+        sender_ids = [transponders[tx.sender].radio_id for tx in transmissions]
+        try:
+            tails: codec.RidFrameTails | None = codec.RidFrameTails.of(
+                [
+                    heard_report(tx.payload, sid, 0.0)
+                    for tx, sid in zip(transmissions, sender_ids, strict=True)
+                ]
+            )
+        except WireError:  # a frame that cannot be sent: each report says so on its own
+            tails = None
+        order = np.argsort(heard.receiver, kind="stable")  # by receiver, each in the order heard
+        bounds = np.flatnonzero(np.diff(heard.receiver[order])) + 1
+        for group in np.split(order, bounds) if len(order) else []:
+            transponder = transponders[int(heard.receiver[group[0]])]
+            port = companions[int(heard.receiver[group[0]])]
+            tail_of, rssi_dbm = heard.transmission[group], heard.rssi_dbm[group]
+            link = None if port is None else port.endpoint.senders.get(TRANSPONDER_COMPONENT)
+            packets = (
+                None
+                if link is None or tails is None
+                else link.frame_rid_reports(tails, tail_of, rssi_dbm)
+            )
+            if packets is not None and port is not None:
+                transponder.counters.received += len(packets)
+                port.endpoint.outbox.extend(packets)
+                continue
+            reports: list[m.Message] = [
+                transponder.report(transmissions[k].payload, sender_ids[k], r)
+                for k, r in zip(tail_of.tolist(), rssi_dbm.tolist(), strict=True)
+            ]
+            if link is not None and port is not None:
+                port.endpoint.send_all(reports, TRANSPONDER_COMPONENT)
+
+    def _deliver_each(self, positions: FloatArray, euler_rad: FloatArray) -> Receptions:
         """One transmission at a time, each random-power sender at a fresh power (the same
         draws of the channel, in the same order, as one ``deliver`` call)."""
-        receptions: list[Reception] = []
+        receivers_of, rssi_of = [], []
         for tx in self.last_transmissions:
             power_dbm = self.adversaries.power_dbm(tx.sender)
             if power_dbm is not None:
                 self.radio.tx_power_dbm[tx.sender] = power_dbm
-            receptions.extend(self.radio.deliver([tx], positions, euler_rad))
-        return receptions
+            heard = self.radio.deliver_columns([tx], positions, euler_rad)
+            receivers_of.append(heard.receiver)
+            rssi_of.append(heard.rssi_dbm)
+        return Receptions.join(receivers_of, rssi_of)
 
     def _periodic(self, now_s: float) -> None:
         snapshot: FleetSnapshot | None = None
@@ -486,6 +528,11 @@ class SimBackend:
             port.endpoint.send(msg, TRANSPONDER_COMPONENT)
 
     # -- for logs, metrics and tests ------------------------------------------------------
+
+    @property
+    def last_receptions(self) -> list[Reception]:
+        """The receptions of ``last_transmissions``, one object each (``last_heard``)."""
+        return self.last_heard.receptions(self.last_transmissions)
 
     def truth(self) -> Truth:
         state = self.fleet.state

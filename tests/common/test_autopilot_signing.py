@@ -95,3 +95,5 @@ def test_a_lockstep_run_with_signed_autopilot_links_flies() -> None:
         assert port.link.signing is not None and port.link.counters.accepted > 0
         own = companion.shell.endpoints["autopilot"].link
         assert own.counters.rejected_signature == 0 and own.counters.accepted > 100
+        # the transponder's reports of the RID it heard came signed too (sent as messages)
+        assert companion.observations.counters.heard > 0

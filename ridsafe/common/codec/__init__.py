@@ -43,7 +43,13 @@ from ridsafe.common.codec.units import (
     ODID_UNKNOWN_SPEED_V_CMS,
     ODID_UNKNOWN_TIMESTAMP_S,
 )
-from ridsafe.common.codec.wire import Payload, encode_payload, encode_payloads, x25_crc
+from ridsafe.common.codec.wire import (
+    Payload,
+    RidFrameTails,
+    encode_payload,
+    encode_payloads,
+    x25_crc,
+)
 
 __all__ = [
     "DEG_E7",
@@ -60,6 +66,7 @@ __all__ = [
     "Payload",
     "Received",
     "ReplayWindow",
+    "RidFrameTails",
     "SigningConfig",
     "encode_payload",
     "encode_payloads",

@@ -16,7 +16,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
 from ridsafe.common import messages as m
+from ridsafe.common.codec.frame_kernels import CRC_BYTES, HEAD_BYTES, HEADER_BYTES, frame_headed
 from ridsafe.common.codec.inbound import first_invalid_field, rows_valid
 from ridsafe.common.codec.signing import ReplayWindow, SigningConfig, SigningState
 from ridsafe.common.codec.wire import (
@@ -29,11 +33,13 @@ from ridsafe.common.codec.wire import (
     STX_V2,
     Layout,
     Payload,
+    RidFrameTails,
     encode_payload,
     encode_payloads,
     layout,
     x25_crc,
 )
+from ridsafe.common.dialect import ridsafe_v20 as mav
 from ridsafe.common.errors import WireError
 from ridsafe.common.frozen import quick_init
 
@@ -48,6 +54,11 @@ logger = logging.getLogger(__name__)
 #: is cleared when full. Shared by every link of the process.
 DECODED_MEMO_SIZE = 4096
 _DECODED: dict[tuple[str, bytes], m.Message] = {}
+_RID_FRAME = mav.MAVLink_ridsafe_rid_frame_message
+#: A RIDSAFE_RID_FRAME packet's bytes besides its frame's tail (unsigned).
+_RID_PACKET_OVERHEAD = HEADER_BYTES + HEAD_BYTES + CRC_BYTES
+#: The largest finite float32: a larger strength would not pack (``struct`` raises).
+_F32_MAX = float(np.finfo(np.float32).max)
 
 
 @quick_init
@@ -173,6 +184,31 @@ class MavlinkLink:
             out.append(packet if signing is None else signing.sign(packet))
         self._seq = seq
         return out
+
+    def frame_rid_reports(
+        self, tails: RidFrameTails, tail_of: NDArray[np.int64], rssi_dbm: NDArray[np.float64]
+    ) -> list[bytes] | None:
+        """The packets ``pack`` makes of RIDSAFE_RID_FRAME reports, report i of frame
+        ``tail_of[i]`` (``tails``) with strength ``rssi_dbm[i]``, framed together
+        (``frame_kernels.frame_headed``). None, framing none, on a signed link or for a
+        strength a float32 cannot hold: the caller then sends the reports as messages."""
+        if self._signing is not None or not np.all(np.abs(rssi_dbm) < _F32_MAX):
+            return None
+        n = rssi_dbm.shape[0]
+        if n == 0:
+            return []
+        header = np.array(
+            [self._incompat_flags, self._seq, self._system, self._component, _RID_FRAME.id],
+            dtype=np.int64,
+        )
+        capacity = int(tails.length[tail_of].sum()) + n * _RID_PACKET_OVERHEAD
+        out, ends = np.empty(capacity, dtype=np.uint8), np.empty(n, dtype=np.int64)
+        frame_headed(rssi_dbm.astype(np.float32), tails.joined, tails.start, tails.length,
+                     tail_of, header, _RID_FRAME.crc_extra, out, ends)  # fmt: skip
+        self._seq = (self._seq + n) & 0xFF
+        raw = out[: ends[-1]].tobytes()
+        starts = [0, *ends[:-1].tolist()]
+        return [raw[a:b] for a, b in zip(starts, ends.tolist(), strict=True)]
 
     def advance_signing_clock(self, elapsed_s: float) -> None:
         """With signing: outgoing stamps at least ``initial_timestamp`` plus ``elapsed_s``

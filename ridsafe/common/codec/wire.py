@@ -22,8 +22,11 @@ import math
 import operator
 import struct
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, NamedTuple, cast
+
+import numpy as np
+from numpy.typing import NDArray
 
 from ridsafe.common import messages as m
 from ridsafe.common.codec.registry import (
@@ -119,6 +122,28 @@ def _rid_frame_payload(report: m.RidFrameReport) -> Payload:
         rest = payload.data[_RSSI_F32.size :]
         _RID_FRAME_TAILS[key] = (payload.msg_id, payload.crc_extra_byte, rest)
     return payload
+
+
+@dataclass(frozen=True)
+class RidFrameTails:
+    """Frames' RIDSAFE_RID_FRAME payloads after the signal strength, joined: what every
+    receiver's report of one frame shares (``MavlinkLink.frame_rid_reports`` frames many
+    reports of them at once). Tail k is ``joined[start[k] : start[k] + length[k]]``."""
+
+    joined: NDArray[np.uint8]
+    start: NDArray[np.int64]
+    length: NDArray[np.int64]
+
+    @classmethod
+    def of(cls, reports: Sequence[m.RidFrameReport]) -> RidFrameTails:
+        """The tails of the reports' frames (their signal strengths aside); raises WireError
+        for a report that cannot be encoded."""
+        tails = [
+            _rid_frame_payload(replace(r, rssi_dbm=1.0)).data[_RSSI_F32.size :] for r in reports
+        ]
+        length = np.array([len(tail) for tail in tails], dtype=np.int64)
+        start = np.concatenate(([0], np.cumsum(length)[:-1])).astype(np.int64)
+        return cls(np.frombuffer(b"".join(tails), np.uint8), start, length)
 
 
 #: The decoding twin of ``_RID_FRAME_TAILS``: a RIDSAFE_RID_FRAME payload's bytes after the

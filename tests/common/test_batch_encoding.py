@@ -1,0 +1,147 @@
+"""Messages encoded and framed many at a time, to the bytes one at a time gives: a companion's
+batch of observation packs (``codec.encode_payloads``) and the sim's RID frame reports
+(``MavlinkLink.frame_rid_reports``)."""
+
+from __future__ import annotations
+
+import math
+import random
+import struct
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from ridsafe.common import codec
+from ridsafe.common import messages as m
+from ridsafe.common.errors import WireError
+
+
+def _round_trip(message: m.Message) -> m.Message:
+    (received,) = codec.MavlinkLink(255, 190).feed(codec.MavlinkLink(1, 1).pack(message))
+    return received.message
+
+
+#: Any float a report could hold: ordinary values, ties of the roundings, values beyond
+#: their fields, NaN and infinities.
+_any_float = st.one_of(
+    st.floats(-200.0, 200.0),
+    st.sampled_from([0.5, 2.5, -0.5, 5e-8, 1.5e-7, 0.005, 359.995, -0.005, 254.255, 3.4028235e38]),
+    st.floats(allow_nan=True, allow_infinity=True),
+)
+_report = st.builds(
+    m.Observation,
+    *[_any_float] * 9,
+    *[st.none() | _any_float] * 3,
+    uas_id=st.sampled_from(["RSAF800000001", "", "A" * 20, "A" * 21, "\u00e9"]),
+)
+
+
+def _each_encoded(packs: list[m.ObservationPack]) -> list[codec.Payload] | None:
+    try:
+        return [codec.encode_payload(pack) for pack in packs]
+    except (WireError, struct.error, ValueError, OverflowError):
+        return None
+
+
+@settings(max_examples=400)
+@given(packs=st.lists(st.lists(_report, min_size=1, max_size=3), min_size=1, max_size=4))
+def test_a_batch_of_packs_encodes_to_the_bytes_of_each_pack_encoded_alone(
+    packs: list[list[m.Observation]],
+) -> None:
+    """``encode_payloads``' compiled pass: the same bytes as ``encode_payload`` pack by pack,
+    and an error where that raises one."""
+    sent = [m.ObservationPack(tuple(reports)) for reports in packs]
+    alone = _each_encoded(sent)
+    if alone is None:
+        with pytest.raises((WireError, struct.error, ValueError, OverflowError)):
+            codec.encode_payloads(sent)
+    else:
+        assert codec.encode_payloads(sent) == alone
+
+
+def test_a_batch_of_ordinary_packs_takes_the_compiled_pass() -> None:
+    """So the equality above is the compiled pass's, not the fallback's with itself."""
+    rng = random.Random(5)
+    reports = [
+        m.Observation(rng.uniform(0, 120), 36.1, -86.8, 230.0 + k, 36.1, -86.8, 240.0, 1799.5,
+                      rng.uniform(-95, -40), rng.choice([None, 359.996, 12.345]), 5.0, -1.0,
+                      f"RSAF8000000{k:02d}")
+        for k in range(7)
+    ]  # fmt: skip
+    packs = [m.ObservationPack(tuple(reports[i : i + 3])) for i in range(0, 7, 3)]
+    payloads = codec.observation_pack_payloads(packs)
+    assert payloads is not None
+    assert payloads == [codec.encode_payload(pack).data for pack in packs]
+
+
+def test_a_report_with_a_course_or_speed_not_finite_goes_with_them_unknown() -> None:
+    report = m.Observation(
+        1.0, 36.1, -86.8, 200.0, 36.1, -86.8, 210.0, 1.0, -70.0, math.nan, math.inf, -math.inf, "A"
+    )
+    unknown = m.Observation(
+        1.0, 36.1, -86.8, 200.0, 36.1, -86.8, 210.0, 1.0, -70.0, None, None, None, "A"
+    )
+    assert _round_trip(report) == _round_trip(unknown)
+    assert codec.encode_payloads([m.ObservationPack((report,))]) == [
+        codec.encode_payload(m.ObservationPack((unknown,)))
+    ]
+
+
+# --- the sim's RID frame reports ---------------------------------------------------------------
+
+_frame = st.binary(min_size=1, max_size=228).map(
+    lambda b: b if b[-1] else b[:-1] + b"\x07"
+) | st.sampled_from([b"\x12" + bytes(24), b"\x01", b"\x12\x00\x00"])
+_rid_report = st.builds(
+    m.RidFrameReport,
+    _frame,
+    st.just(0.0),
+    st.binary(max_size=20),
+    st.sampled_from([0, 1, 2, 3]),
+    st.sampled_from([0, 6]),
+)
+
+
+@settings(max_examples=300)
+@given(
+    frames=st.lists(_rid_report, min_size=1, max_size=6),
+    heard=st.lists(
+        st.tuples(
+            st.integers(0, 5),
+            st.one_of(st.floats(-120.0, 20.0), st.sampled_from([0.0, -0.0, -64.0, 1e-45, 3e38])),
+        ),
+        max_size=20,
+    ),
+    first_seq=st.integers(0, 255),
+)
+def test_rid_frame_reports_framed_together_are_the_packets_of_each_packed_alone(
+    frames: list[m.RidFrameReport], heard: list[tuple[int, float]], first_seq: int
+) -> None:
+    """Header, sequence numbers (wrapping), trimmed payload and CRC: byte for byte."""
+    tail_of = np.array([k % len(frames) for k, _ in heard], dtype=np.int64)
+    rssi_dbm = np.array([r for _, r in heard], dtype=np.float64)
+    together, alone = codec.MavlinkLink(7, 236), codec.MavlinkLink(7, 236)
+    together._seq = alone._seq = first_seq
+    got = together.frame_rid_reports(codec.RidFrameTails.of(frames), tail_of, rssi_dbm)
+    want = [
+        alone.pack(m.RidFrameReport(f.frame, r, f.sender_id, f.transport, f.channel))
+        for f, r in (
+            (frames[k], r) for k, r in zip(tail_of.tolist(), rssi_dbm.tolist(), strict=True)
+        )
+    ]
+    assert got == want
+    assert together._seq == alone._seq
+
+
+def test_a_signed_link_or_a_strength_beyond_float32_frames_none() -> None:
+    """The caller then sends the reports as messages (signatures, ``struct``'s error)."""
+    tails = codec.RidFrameTails.of([m.RidFrameReport(b"\x12" + bytes(24), 0.0, b"A", 3)])
+    signed = codec.MavlinkLink(1, 236, codec.SigningConfig(bytes(range(32)), 0))
+    one = np.zeros(1, dtype=np.int64)
+    assert signed.frame_rid_reports(tails, one, np.array([-70.0])) is None
+    plain = codec.MavlinkLink(1, 236)
+    for rssi in (1e39, math.inf, math.nan):
+        assert plain.frame_rid_reports(tails, one, np.array([rssi])) is None
+    assert plain.frame_rid_reports(tails, np.zeros(0, np.int64), np.zeros(0)) == []
