@@ -503,7 +503,8 @@ class SimBackend:
                     self.scenario.origin,
                     self.fleet.on_ground,
                 )
-            endpoint.endpoint.send_all([self._telemetry(msg_id, i, snapshot) for msg_id in due])
+            for msg_id in due:
+                self._send(endpoint, self._telemetry(msg_id, i, snapshot))
         if now_s >= self._next_periodic_s - 1e-9:
             self._next_periodic_s += 1.0 / max(self.config.transponder_heartbeat_hz, 1e-3)
             for endpoint in self.endpoints.values():
