@@ -91,6 +91,9 @@ class Receptions:
     ) -> Receptions:
         """Transmission k's receivers and strengths (``receivers_of[k]``, ``rssi_of[k]``), one
         after another."""
+        if len(receivers_of) == 1:  # most ticks: one transmission
+            receivers = receivers_of[0].astype(np.int64, copy=False)
+            return cls(np.zeros(len(receivers), np.int64), receivers, rssi_of[0])
         counts = [len(receivers) for receivers in receivers_of]
         return cls(
             np.repeat(np.arange(len(counts), dtype=np.int64), counts),

@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 import random
 import struct
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -109,39 +110,45 @@ _rid_report = st.builds(
     frames=st.lists(_rid_report, min_size=1, max_size=6),
     heard=st.lists(
         st.tuples(
-            st.integers(0, 5),
+            st.integers(0, 2),  # which link
+            st.integers(0, 5),  # which frame
             st.one_of(st.floats(-120.0, 20.0), st.sampled_from([0.0, -0.0, -64.0, 1e-45, 3e38])),
         ),
-        max_size=20,
+        max_size=30,
     ),
-    first_seq=st.integers(0, 255),
+    first_seqs=st.lists(st.integers(0, 255), min_size=3, max_size=3),
 )
 def test_rid_frame_reports_framed_together_are_the_packets_of_each_packed_alone(
-    frames: list[m.RidFrameReport], heard: list[tuple[int, float]], first_seq: int
+    frames: list[m.RidFrameReport], heard: list[tuple[int, int, float]], first_seqs: list[int]
 ) -> None:
-    """Header, sequence numbers (wrapping), trimmed payload and CRC: byte for byte."""
-    tail_of = np.array([k % len(frames) for k, _ in heard], dtype=np.int64)
-    rssi_dbm = np.array([r for _, r in heard], dtype=np.float64)
-    together, alone = codec.MavlinkLink(7, 236), codec.MavlinkLink(7, 236)
-    together._seq = alone._seq = first_seq
-    got = together.frame_rid_reports(codec.RidFrameTails.of(frames), tail_of, rssi_dbm)
-    want = [
-        alone.pack(m.RidFrameReport(f.frame, r, f.sender_id, f.transport, f.channel))
-        for f, r in (
-            (frames[k], r) for k, r in zip(tail_of.tolist(), rssi_dbm.tolist(), strict=True)
-        )
-    ]
+    """Per link: header, sequence numbers (wrapping), trimmed payload and CRC, byte for byte;
+    each link's sequence number advanced as by packing one by one."""
+    heard = sorted(heard, key=lambda h: h[0])  # grouped by link
+    together = [codec.MavlinkLink(7 + k, 236) for k in range(3)]
+    alone = [codec.MavlinkLink(7 + k, 236) for k in range(3)]
+    for k, seq in enumerate(first_seqs):
+        together[k]._seq = alone[k]._seq = seq
+    counts = [sum(1 for h in heard if h[0] == k) for k in range(3)]
+    tail_of = np.array([f % len(frames) for _, f, _ in heard], dtype=np.int64)
+    rssi_dbm = np.array([r for _, _, r in heard], dtype=np.float64)
+    got = codec.frame_rid_reports(
+        together, counts, codec.RidFrameTails.of(frames), tail_of, rssi_dbm
+    )
+    want: list[list[bytes]] = [[], [], []]
+    for (k, _, r), f in zip(heard, tail_of.tolist(), strict=True):
+        want[k].append(alone[k].pack(replace(frames[f], rssi_dbm=r)))
     assert got == want
-    assert together._seq == alone._seq
+    assert [link._seq for link in together] == [link._seq for link in alone]
 
 
 def test_a_signed_link_or_a_strength_beyond_float32_frames_none() -> None:
     """The caller then sends the reports as messages (signatures, ``struct``'s error)."""
     tails = codec.RidFrameTails.of([m.RidFrameReport(b"\x12" + bytes(24), 0.0, b"A", 3)])
     signed = codec.MavlinkLink(1, 236, codec.SigningConfig(bytes(range(32)), 0))
+    plain = codec.MavlinkLink(2, 236)
     one = np.zeros(1, dtype=np.int64)
-    assert signed.frame_rid_reports(tails, one, np.array([-70.0])) is None
-    plain = codec.MavlinkLink(1, 236)
+    assert codec.frame_rid_reports([plain, signed], [1, 0], tails, one, np.array([-70.0])) is None
     for rssi in (1e39, math.inf, math.nan):
-        assert plain.frame_rid_reports(tails, one, np.array([rssi])) is None
-    assert plain.frame_rid_reports(tails, np.zeros(0, np.int64), np.zeros(0)) == []
+        assert codec.frame_rid_reports([plain], [1], tails, one, np.array([rssi])) is None
+    assert plain._seq == 0
+    assert codec.frame_rid_reports([plain], [0], tails, np.zeros(0, np.int64), np.zeros(0)) == [[]]

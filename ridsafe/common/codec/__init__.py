@@ -24,7 +24,13 @@ This package re-exports the names the apps use, so ``codec.MavlinkLink`` is the 
 """
 
 from ridsafe.common.codec.fields import message_from_fields, odid_fields
-from ridsafe.common.codec.link import LinkCounters, MavlinkLink, Received, warm_up_columnar
+from ridsafe.common.codec.link import (
+    LinkCounters,
+    MavlinkLink,
+    Received,
+    frame_rid_reports,
+    warm_up_columnar,
+)
 from ridsafe.common.codec.registry import from_mavlink, to_mavlink
 from ridsafe.common.codec.ridsafe_messages import OBSERVATIONS_PER_PACK, observation_pack_payloads
 from ridsafe.common.codec.signing import (
@@ -70,6 +76,7 @@ __all__ = [
     "SigningConfig",
     "encode_payload",
     "encode_payloads",
+    "frame_rid_reports",
     "from_mavlink",
     "load_signing_key",
     "message_from_fields",

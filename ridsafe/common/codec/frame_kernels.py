@@ -1,4 +1,4 @@
-"""Many MAVLink 2 packets of one kind framed at once, compiled (``MavlinkLink.
+"""Many MAVLink 2 packets of one kind framed at once, compiled (``link.
 frame_rid_reports``): the sim's radio hands each companion the frames it heard, some 4,000
 RIDSAFE_RID_FRAME packets a second at 64 aircraft, and every report of one frame differs from
 the others only in its first field, the signal strength.
@@ -39,22 +39,17 @@ def frame_headed(
     tail_start: NDArray[np.int64],
     tail_length: NDArray[np.int64],
     tail_of: NDArray[np.int64],
+    seq_system_component: NDArray[np.int64],
     header: NDArray[np.int64],
-    crc_extra: int,
     out: NDArray[np.uint8],
     ends: NDArray[np.int64],
 ) -> None:
     """Packet i (payload: ``heads[i]`` as a little-endian float32, then tail ``tail_of[i]``,
-    trailing zeros trimmed) into ``out`` after packet i - 1, ending at ``ends[i]``.
-    ``header``: incompatibility flags, first sequence number (the others follow it, mod 256),
-    system, component, message id. ``out`` holds at least every untrimmed packet."""
-    incompat, seq0, system, component, msg_id = (
-        header[0],
-        header[1],
-        header[2],
-        header[3],
-        header[4],
-    )
+    trailing zeros trimmed; sequence number, system and component
+    ``seq_system_component[i]``) into ``out`` after packet i - 1, ending at ``ends[i]``.
+    ``header``: incompatibility flags, message id, CRC extra. ``out`` holds at least every
+    untrimmed packet."""
+    incompat, msg_id, crc_extra = header[0], header[1], header[2]
     head_bytes = heads.view(np.uint8)
     at = 0
     for i in range(heads.shape[0]):
@@ -66,8 +61,9 @@ def frame_headed(
         length = HEAD_BYTES + n_tail
         while length > 1 and out[payload + length - 1] == 0:
             length -= 1
+        seq, system, component = seq_system_component[i]
         out[at], out[at + 1], out[at + 2], out[at + 3] = _STX_V2, length, incompat, 0
-        out[at + 4], out[at + 5], out[at + 6] = (seq0 + i) & 0xFF, system, component
+        out[at + 4], out[at + 5], out[at + 6] = seq & 0xFF, system, component
         out[at + 7], out[at + 8], out[at + 9] = msg_id & 0xFF, (msg_id >> 8) & 0xFF, msg_id >> 16
         crc = 0xFFFF
         for j in range(at + 1, payload + length):

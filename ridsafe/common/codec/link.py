@@ -59,6 +59,8 @@ _RID_FRAME = mav.MAVLink_ridsafe_rid_frame_message
 _RID_PACKET_OVERHEAD = HEADER_BYTES + HEAD_BYTES + CRC_BYTES
 #: The largest finite float32: a larger strength would not pack (``struct`` raises).
 _F32_MAX = float(np.finfo(np.float32).max)
+#: Unsigned (incompatibility flags 0), its message id, its CRC extra.
+_RID_HEADER = np.array([0, _RID_FRAME.id, _RID_FRAME.crc_extra], dtype=np.int64)
 
 
 @quick_init
@@ -184,31 +186,6 @@ class MavlinkLink:
             out.append(packet if signing is None else signing.sign(packet))
         self._seq = seq
         return out
-
-    def frame_rid_reports(
-        self, tails: RidFrameTails, tail_of: NDArray[np.int64], rssi_dbm: NDArray[np.float64]
-    ) -> list[bytes] | None:
-        """The packets ``pack`` makes of RIDSAFE_RID_FRAME reports, report i of frame
-        ``tail_of[i]`` (``tails``) with strength ``rssi_dbm[i]``, framed together
-        (``frame_kernels.frame_headed``). None, framing none, on a signed link or for a
-        strength a float32 cannot hold: the caller then sends the reports as messages."""
-        if self._signing is not None or not np.all(np.abs(rssi_dbm) < _F32_MAX):
-            return None
-        n = rssi_dbm.shape[0]
-        if n == 0:
-            return []
-        header = np.array(
-            [self._incompat_flags, self._seq, self._system, self._component, _RID_FRAME.id],
-            dtype=np.int64,
-        )
-        capacity = int(tails.length[tail_of].sum()) + n * _RID_PACKET_OVERHEAD
-        out, ends = np.empty(capacity, dtype=np.uint8), np.empty(n, dtype=np.int64)
-        frame_headed(rssi_dbm.astype(np.float32), tails.joined, tails.start, tails.length,
-                     tail_of, header, _RID_FRAME.crc_extra, out, ends)  # fmt: skip
-        self._seq = (self._seq + n) & 0xFF
-        raw = out[: ends[-1]].tobytes()
-        starts = [0, *ends[:-1].tolist()]
-        return [raw[a:b] for a, b in zip(starts, ends.tolist(), strict=True)]
 
     def advance_signing_clock(self, elapsed_s: float) -> None:
         """With signing: outgoing stamps at least ``initial_timestamp`` plus ``elapsed_s``
@@ -487,3 +464,38 @@ def warm_up_columnar() -> m.ObservationRows:
     if not isinstance(singles, m.ObservationRows) or [type(r) for r in rows] != [type(singles)] * 2:
         raise AssertionError(f"the warm-up's reports came as {rows!r}")
     return singles
+
+
+def frame_rid_reports(
+    links: Sequence[MavlinkLink],
+    counts: Sequence[int],
+    tails: RidFrameTails,
+    tail_of: NDArray[np.int64],
+    rssi_dbm: NDArray[np.float64],
+) -> list[list[bytes]] | None:
+    """The packets each link's ``pack`` makes of RIDSAFE_RID_FRAME reports, framed together
+    (``frame_kernels.frame_headed``): report i of frame ``tail_of[i]`` (``tails``) with
+    strength ``rssi_dbm[i]``, the first ``counts[0]`` through ``links[0]``, the next
+    ``counts[1]`` through ``links[1]``... (each link's sequence numbers advance). None,
+    framing none, when a link signs or a strength does not fit a float32: the caller then
+    sends the reports as messages."""
+    if any(link.signing is not None for link in links) or not np.all(np.abs(rssi_dbm) < _F32_MAX):
+        return None
+    n = int(rssi_dbm.shape[0])
+    if n == 0:
+        return [[] for _ in links]
+    per_link = np.array([[link._seq, link._system, link._component] for link in links], np.int64)
+    count = np.array(counts, dtype=np.int64)
+    first = np.cumsum(count) - count
+    ids = np.repeat(per_link, count, axis=0)
+    ids[:, 0] += np.arange(n) - np.repeat(first, count)
+    out = np.empty(int(tails.length[tail_of].sum()) + n * _RID_PACKET_OVERHEAD, dtype=np.uint8)
+    ends = np.empty(n, dtype=np.int64)
+    frame_headed(rssi_dbm.astype(np.float32), tails.joined, tails.start, tails.length, tail_of,
+                 ids, _RID_HEADER, out, ends)  # fmt: skip
+    raw, bounds = out[: ends[-1]].tobytes(), [0, *ends.tolist()]
+    packets: list[list[bytes]] = []
+    for link, start, k in zip(links, first.tolist(), counts, strict=True):
+        link._seq = (link._seq + k) & 0xFF
+        packets.append([raw[bounds[i] : bounds[i + 1]] for i in range(start, start + k)])
+    return packets
