@@ -19,13 +19,18 @@ BASIC_ID, SYSTEM and LOCATION within the last 3 s, otherwise status 1 with the r
 
 from __future__ import annotations
 
+import itertools
 import logging
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+
+import numpy as np
 
 from ridsafe.common import codec, f3411
 from ridsafe.common import messages as m
-from ridsafe.common.errors import RidsafeError
+from ridsafe.common.errors import RidsafeError, WireError
+from ridsafe.sim_backend.radio import Receptions, Transmission
 
 logger = logging.getLogger(__name__)
 
@@ -184,3 +189,44 @@ class Transponder:
 def heard_report(frame: bytes, sender_id: bytes, rssi_dbm: float) -> m.RidFrameReport:
     """The report of a frame a simulated transponder heard (``Transponder.report``)."""
     return m.RidFrameReport(frame, rssi_dbm, sender_id, int(m.RidTransport.SIMULATED))
+
+
+def frame_heard_together(
+    transponders: Sequence[Transponder],
+    links: Sequence[codec.MavlinkLink | None],
+    transmissions: Sequence[Transmission],
+    heard: Receptions,
+) -> list[tuple[int, list[bytes]]] | None:
+    """(receiver, its packets) of every receiver with a link to its companion (``links``, by
+    vehicle index; None: none): the RIDSAFE_RID_FRAME packets ``Transponder.report`` of each
+    reception, in the order heard, would make, framed in one compiled pass
+    (``codec.frame_rid_reports``); every transponder's receptions counted. None, having
+    framed and counted nothing, where they cannot be (a frame that cannot be sent, a signed
+    link)."""
+    order = np.argsort(heard.receiver, kind="stable")  # by receiver, each in the order heard
+    receivers = heard.receiver[order]
+    cuts = [0, *(np.flatnonzero(np.diff(receivers)) + 1).tolist(), len(order)]
+    groups = [(int(receivers[a]), a, b) for a, b in itertools.pairwise(cuts)]
+    to = [
+        (receiver, link, a, b) for receiver, a, b in groups if (link := links[receiver]) is not None
+    ]
+    try:
+        tails = codec.RidFrameTails.of(
+            [heard_report(tx.payload, transponders[tx.sender].radio_id, 0.0)
+             for tx in transmissions]
+        )  # fmt: skip
+    except WireError:  # each report then says so on its own
+        return None
+    chosen = np.concatenate([np.zeros(0, np.int64), *(np.arange(a, b) for *_, a, b in to)])
+    packets = codec.frame_rid_reports(
+        [link for _, link, _, _ in to],
+        [b - a for *_, a, b in to],
+        tails,
+        heard.transmission[order][chosen],
+        heard.rssi_dbm[order][chosen],
+    )
+    if packets is None:
+        return None
+    for receiver, a, b in groups:
+        transponders[receiver].counters.received += b - a
+    return [(receiver, framed) for (receiver, *_), framed in zip(to, packets, strict=True)]

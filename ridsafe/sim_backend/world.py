@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import dataclasses
 import enum
-import itertools
 import logging
 import math
 from collections.abc import Iterable
@@ -37,7 +36,7 @@ from ridsafe.common import codec, rng, topics
 from ridsafe.common import messages as m
 from ridsafe.common import protocol_messages as pm
 from ridsafe.common.adversary import AdversaryRole
-from ridsafe.common.errors import ClockError, WireError
+from ridsafe.common.errors import ClockError
 from ridsafe.common.logsink import LogSink, NullSink
 from ridsafe.common.scenario import Scenario
 from ridsafe.common.shell import (
@@ -64,7 +63,7 @@ from ridsafe.sim_backend.transponder import (
     STATIC_PERIOD_S,
     TRANSPONDER_COMPONENT,
     Transponder,
-    heard_report,
+    frame_heard_together,
 )
 from ridsafe.sim_backend.vehicles import OctorotorFleet
 
@@ -444,10 +443,18 @@ class SimBackend:
     def _hand_over(self, transmissions: list[Transmission], heard: Receptions) -> None:
         """Each receiver's transponder reports what it heard to its companion, frame by frame
         in the order heard: one RIDSAFE_RID_FRAME each (``Transponder.report``), framed
-        together where a tick holds many (``_framed_together``: the same packets)."""
-        if len(heard) >= _FRAMED_TOGETHER_FROM and self._framed_together(transmissions, heard):
-            return
+        together where a tick holds many (``frame_heard_together``: the same packets)."""
         transponders, companions = self.transponders, self._companion_ports
+        if len(heard) >= _FRAMED_TOGETHER_FROM:
+            links = [None if p is None else p.endpoint.senders.get(TRANSPONDER_COMPONENT)
+                     for p in companions]  # fmt: skip
+            framed = frame_heard_together(transponders, links, transmissions, heard)
+            if framed is not None:
+                for receiver, packets in framed:
+                    port = companions[receiver]
+                    assert port is not None
+                    port.endpoint.outbox.extend(packets)
+                return
         for t, receiver, rssi_dbm in zip(
             heard.transmission.tolist(),
             heard.receiver.tolist(),
@@ -461,45 +468,6 @@ class SimBackend:
             port = companions[receiver]
             if port is not None:
                 self._send(port, report, transponder=True)
-
-    def _framed_together(self, transmissions: list[Transmission], heard: Receptions) -> bool:
-        """``_hand_over``, every companion's packets framed in one compiled pass
-        (``codec.frame_rid_reports``); False, having sent and counted nothing, where they
-        cannot be (a frame that cannot be sent, a signed link)."""
-        transponders = self.transponders
-        order = np.argsort(heard.receiver, kind="stable")  # by receiver, each in the order heard
-        receivers = heard.receiver[order]
-        cuts = [0, *(np.flatnonzero(np.diff(receivers)) + 1).tolist(), len(order)]
-        groups = [(int(receivers[a]), a, b) for a, b in itertools.pairwise(cuts)]
-        # (companion endpoint, its transponder's link, first, end) of each receiver's reports
-        to: list[tuple[Endpoint, codec.MavlinkLink, int, int]] = []
-        for receiver, a, b in groups:
-            port = self._companion_ports[receiver]
-            link = None if port is None else port.endpoint.senders.get(TRANSPONDER_COMPONENT)
-            if port is not None and link is not None:
-                to.append((port.endpoint, link, a, b))
-        try:
-            tails = codec.RidFrameTails.of(
-                [heard_report(tx.payload, transponders[tx.sender].radio_id, 0.0)
-                 for tx in transmissions]
-            )  # fmt: skip
-        except WireError:  # each report then says so on its own
-            return False
-        chosen = np.concatenate([np.zeros(0, np.int64), *(np.arange(a, b) for _, _, a, b in to)])
-        packets = codec.frame_rid_reports(
-            [link for _, link, _, _ in to],
-            [b - a for _, _, a, b in to],
-            tails,
-            heard.transmission[order][chosen],
-            heard.rssi_dbm[order][chosen],
-        )
-        if packets is None:
-            return False
-        for receiver, a, b in groups:
-            transponders[receiver].counters.received += b - a
-        for (endpoint, _, _, _), framed in zip(to, packets, strict=True):
-            endpoint.outbox.extend(framed)
-        return True
 
     def _deliver_each(self, positions: FloatArray, euler_rad: FloatArray) -> Receptions:
         """One transmission at a time, each random-power sender at a fresh power (the same
