@@ -87,6 +87,7 @@ __all__ = [
     "PositionTargetMask",
     "RegionFlags",
     "RidFrameReport",
+    "RidFrameReports",
     "RidTransport",
     "RidsafeDetector",
     "SetMode",
@@ -347,6 +348,18 @@ class RidFrameReport:
     channel: int = 0
 
 
+@dataclass(frozen=True, slots=True)
+class RidFrameReports:
+    """Consecutive RIDSAFE_RID_FRAME messages of one sender, decoded together (by a link
+    with columnar decoding, as a companion's autopilot link): each the ``RidFrameReport``
+    it was sent as, in order. Received only, never sent."""
+
+    reports: tuple[RidFrameReport, ...]
+
+    def __len__(self) -> int:
+        return len(self.reports)
+
+
 @quick_init
 @dataclass(frozen=True, slots=True)
 class Observation:
@@ -503,6 +516,7 @@ Message: TypeAlias = (
     | OdidArmStatus
     | OdidRaw
     | RidFrameReport
+    | RidFrameReports
     | Observation
     | ObservationPack
     | ObservationRows

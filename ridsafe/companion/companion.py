@@ -100,8 +100,10 @@ class Companion:
         self.config = config
         self.sink = sink
         sysid = spec.sysid
+        codec.warm_up_batches()  # its batch of reports: the kernels loaded before the run
         self.shell = AppShell(f"companion/{sysid}")
-        own_link = codec.MavlinkLink(sysid, COMPANION_COMPONENT, autopilot_signing)
+        # columnar: the transponder's reports of a datagram come decoded together
+        own_link = codec.MavlinkLink(sysid, COMPANION_COMPONENT, autopilot_signing, columnar=True)
         accept = from_system(sysid, (AUTOPILOT_COMPONENT, TRANSPONDER_COMPONENT))
         self.shell.add(Endpoint(AUTOPILOT, own_link, accept=accept))
         self.shell.add(Endpoint(GCS, codec.MavlinkLink(sysid, COMPANION_COMPONENT, signing)))

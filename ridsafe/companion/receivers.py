@@ -69,6 +69,9 @@ class TransponderReceiver:
         if isinstance(message, m.RidFrameReport):
             self.stats.frames += 1
             self._heard.append(HeardRidFrame(now_s, message))
+        elif type(message) is m.RidFrameReports:  # a run of them, decoded together
+            self.stats.frames += len(message)
+            self._heard.extend([HeardRidFrame(now_s, report) for report in message.reports])
         else:
             self.stats.other += 1
 

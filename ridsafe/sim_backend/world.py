@@ -183,6 +183,7 @@ class SimBackend:
         )
         spoofers = [a for a in self.adversaries.items if a.role is AdversaryRole.SPOOFER]
         self.spoofer_index = spoofers[0].index if spoofers else None  # the first spoofer
+        codec.warm_up_batches()  # the RID frames it carries: the kernel loaded before the run
         self.shell = AppShell("sim")
         self.endpoints = {
             endpoint_name(i + 1, kind): self._make_port(i + 1, kind)

@@ -29,6 +29,7 @@ from ridsafe.common.codec.link import (
     MavlinkLink,
     Received,
     frame_rid_reports,
+    warm_up_batches,
     warm_up_columnar,
 )
 from ridsafe.common.codec.registry import from_mavlink, to_mavlink
@@ -84,6 +85,7 @@ __all__ = [
     "odid_fields",
     "signing_timestamp_from_unix",
     "to_mavlink",
+    "warm_up_batches",
     "warm_up_columnar",
     "x25_crc",
 ]

@@ -11,6 +11,7 @@ logged, counted in ``LinkCounters`` and dropped, and parsing goes on with the ne
 
 from __future__ import annotations
 
+import functools
 import logging
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -120,9 +121,9 @@ class MavlinkLink:
         a key share one (``ReplayWindow``), so a stream replayed through another socket is
         still seen as old. Default: this link's own. ``columnar``: consecutive messages of a
         kind with a columnar decoding (``wire.Layout.decode_rows``: RIDSAFE_OBSERVATION and
-        RIDSAFE_OBSERVATION_PACK) from one sender in one ``feed`` come as one ``Received`` of
-        their rows (``messages.ObservationRows``), decoded together; each message still counts
-        as accepted."""
+        RIDSAFE_OBSERVATION_PACK, RIDSAFE_RID_FRAME) from one sender in one ``feed`` come as
+        one ``Received`` of their rows (``messages.ObservationRows``, ``RidFrameReports``),
+        decoded together; each message still counts as accepted."""
         self._columnar = columnar
         self._system, self._component, self._seq = src_system, src_component, 0
         self._incompat_flags = 0 if signing is None else IFLAG_SIGNED
@@ -350,7 +351,7 @@ class MavlinkLink:
         packet_layout = layout(first[7] | first[8] << 8 | first[9] << 16)
         assert packet_layout is not None and packet_layout.decode_rows is not None
         rows = packet_layout.decode_rows([p[HEADER_LEN : HEADER_LEN + p[1]] for p in run])
-        if rows is not None and rows_valid(rows):
+        if rows is not None and (isinstance(rows, m.RidFrameReports) or rows_valid(rows)):
             self.counters.accepted += len(run)
             received.append(Received(first[5], first[6], rows, bool(first[2] & IFLAG_SIGNED)))
         else:
@@ -464,6 +465,18 @@ def warm_up_columnar() -> m.ObservationRows:
     if not isinstance(singles, m.ObservationRows) or [type(r) for r in rows] != [type(singles)] * 2:
         raise AssertionError(f"the warm-up's reports came as {rows!r}")
     return singles
+
+
+@functools.cache
+def warm_up_batches() -> None:
+    """Load (or compile) the kernels of the batched encodings once per process, before a run
+    needs them: a companion's batch of reports (``wire.encode_payloads``) and the sim's RID
+    frame reports framed together (``frame_rid_reports``)."""
+    report = m.Observation(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -70.0, None, None, None, "W")
+    link = MavlinkLink(1, 1)
+    link.pack_each([m.ObservationPack((report,))])
+    tails = RidFrameTails.of([m.RidFrameReport(b"\x12" + bytes(24), 0.0, b"W", 3)])
+    frame_rid_reports([link], [1], tails, np.zeros(1, np.int64), np.array([-70.0]))
 
 
 def frame_rid_reports(

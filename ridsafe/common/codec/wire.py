@@ -138,6 +138,7 @@ class RidFrameTails:
     def of(cls, reports: Sequence[m.RidFrameReport]) -> RidFrameTails:
         """The tails of the reports' frames (their signal strengths aside); raises WireError
         for a report that cannot be encoded."""
+        # At a strength of 1.0 (last byte 0x3f) none of the tail's leading bytes is trimmed.
         tails = [
             _rid_frame_payload(replace(r, rssi_dbm=1.0)).data[_RSSI_F32.size :] for r in reports
         ]
@@ -165,6 +166,17 @@ def known_rid_frame(payload: bytes) -> m.RidFrameReport | None:
     if not math.isfinite(rssi_dbm):
         return None
     return m.RidFrameReport(known.frame, rssi_dbm, known.sender_id, known.transport, known.channel)
+
+
+def known_rid_frames(payloads: Sequence[bytes]) -> m.RidFrameReports | None:
+    """RIDSAFE_RID_FRAME payloads decoded together (``MavlinkLink``'s columnar decoding),
+    each what ``known_rid_frame`` makes of it; None when one is not known or not finite: the
+    caller then decodes them one by one, which decodes that one whole (and remembers it) or
+    says why not."""
+    reports = [known_rid_frame(payload) for payload in payloads]
+    if any(report is None for report in reports):
+        return None
+    return m.RidFrameReports(tuple(cast("list[m.RidFrameReport]", reports)))
 
 
 def remember_rid_frame(payload: bytes, report: m.Message) -> None:
@@ -210,7 +222,7 @@ class Layout:
     decode: FromMav | None  # the domain message of a view; None: the apps do not use it
     #: Many payloads of this message at once (``MavlinkLink``'s columnar decoding), or None
     #: when one of them is not plainly valid; None: no columnar decoding.
-    decode_rows: Callable[[Sequence[bytes]], m.ObservationRows | None] | None
+    decode_rows: Callable[[Sequence[bytes]], m.ObservationRows | m.RidFrameReports | None] | None
     #: The message of a payload from what a payload alike but for its first bytes decoded
     #: to (None: not known), and what keeps a decoding for it (``known_rid_frame``).
     decode_known: Callable[[bytes], m.Message | None] | None
@@ -262,6 +274,11 @@ UNIQUE_PAYLOAD_MESSAGES = frozenset(
 _TAIL_MEMOS: dict[
     str, tuple[Callable[[bytes], m.Message | None], Callable[[bytes, m.Message], None]]
 ] = {"RIDSAFE_RID_FRAME": (known_rid_frame, remember_rid_frame)}
+#: Their columnar decoding through that memo (a companion hears 63 frames in one datagram
+#: at 64 aircraft, all but the first receiver's already decoded in this process).
+_TAIL_RUNS: dict[str, Callable[[Sequence[bytes]], m.RidFrameReports | None]] = {
+    "RIDSAFE_RID_FRAME": known_rid_frames
+}
 
 
 @functools.cache
@@ -288,7 +305,7 @@ def layout(msg_id: int) -> Layout | None:
         chars,
         _view_type(cls.msgname, tuple(cls.fieldnames)),
         decoder_for(cls.msgname),
-        rows_decoder_for(cls.msgname),
+        rows_decoder_for(cls.msgname) or _TAIL_RUNS.get(cls.msgname),
         known,
         remember,
         cls.msgname not in UNIQUE_PAYLOAD_MESSAGES,
