@@ -13,9 +13,10 @@ from ridsafe.common import messages as m
 from ridsafe.common.logsink import NullSink
 from ridsafe.common.udp import Address, UdpEndpoint
 from ridsafe.companion.mission import Phase
+from ridsafe.sim_backend import world
 from ridsafe.sim_backend.world import EndpointKind, endpoint_name
 from ridsafe.tools.run import lockstep
-from ridsafe.tools.run.scenario import load_scenario_file
+from ridsafe.tools.run.scenario import load_scenario_file, with_aircraft
 from tests.common.test_peer_lock import COMPANION_IDS, SimOverUdp
 
 KEY = codec.SigningConfig(bytes(range(32)), codec.signing_timestamp_from_unix(1_700_000_000.0))
@@ -97,3 +98,22 @@ def test_a_lockstep_run_with_signed_autopilot_links_flies() -> None:
         assert own.counters.rejected_signature == 0 and own.counters.accepted > 100
         # the transponder's reports of the RID it heard came signed too (sent as messages)
         assert companion.observations.counters.heard > 0
+
+
+def test_a_signed_fleet_hears_every_rid_broadcast_the_radio_delivers() -> None:
+    """Eight aircraft: a tick carries more receptions than the sim frames together
+    (``world._FRAMED_TOGETHER_FROM``), which a signed link cannot take; every reception still
+    reaches its companion, signed, as a message of its own."""
+    overrides = {"run.sign_autopilot_links": True, "scenario.duration_s": 12.0}
+    run = lockstep.build(with_aircraft(load_scenario_file(None, overrides), 8), "aware", NullSink())
+    delivered, busiest = 0, 0  # to the aircraft with a companion (the spoofer hears too)
+    while run.t_s < 10.0:
+        run.step()
+        delivered += sum(1 for r in run.sim.last_heard.receiver.tolist() if r + 1 in run.companions)
+        busiest = max(busiest, len(run.sim.last_heard))
+    assert delivered > 200 and busiest >= world._FRAMED_TOGETHER_FROM
+    heard = sum(c.receiver.counters()["frames"] for c in run.companions.values())
+    assert heard == delivered
+    for companion in run.companions.values():
+        link = companion.shell.endpoints["autopilot"].link
+        assert link.counters.rejected_signature == 0
