@@ -3,7 +3,8 @@
 Every sans-I/O core (sim backend, companion, GCS) takes a ``LogSink`` and calls
 ``sink.log(topic, t_s, record)`` with a topic from ``ridsafe.common.topics``, the sim time
 the record is about, and a JSON-serialisable mapping (numbers, strings, bools, None, lists,
-dicts; no numpy scalars or arrays: convert with ``.tolist()`` / ``float()``).
+dicts; no numpy scalars or arrays: convert with ``.tolist()`` / ``float()``); a long list
+of items may come as ``ItemRows``, which reads and pickles as that list.
 
 The MCAP recorder (``ridsafe.tools.runlog.writer``) is the sink of a real run; tests use
 ``MemorySink``; ``NullSink`` drops everything; ``TeeSink`` hands each record to several.
@@ -11,11 +12,65 @@ The MCAP recorder (``ridsafe.tools.runlog.writer``) is the sink of a real run; t
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any, Protocol, overload
 
 Record = Mapping[str, Any]
+
+
+def items_of(keys: tuple[str, ...], columns: tuple[list[Any], ...]) -> list[dict[str, Any]]:
+    """The items ``ItemRows(keys, columns)`` stands for: item i maps each key to its column's
+    i-th value, the keys in order."""
+    return [dict(zip(keys, row, strict=True)) for row in zip(*columns, strict=True)]
+
+
+class ItemRows(Sequence[dict[str, Any]]):
+    """A record's list of items (mappings of the same keys) held as one list per key: built
+    from arrays and pickled at a fraction of the cost of thousands of dicts (the sim's
+    receptions, a companion's reports). It reads as the list of dicts it stands for, and
+    unpickles as that list: a run log's writer, in another process, gets plain data; a sink
+    that encodes in the process that logged calls ``plain_record``."""
+
+    __slots__ = ("_columns", "_keys")
+
+    def __init__(self, keys: tuple[str, ...], columns: tuple[list[Any], ...]) -> None:
+        if len(keys) != len(columns) or len({len(column) for column in columns}) > 1:
+            raise ValueError(f"ItemRows: {len(keys)} keys for columns of lengths "
+                             f"{[len(column) for column in columns]}")  # fmt: skip
+        self._keys, self._columns = keys, columns
+
+    def __len__(self) -> int:
+        return len(self._columns[0]) if self._columns else 0
+
+    @overload
+    def __getitem__(self, index: int) -> dict[str, Any]: ...
+    @overload
+    def __getitem__(self, index: slice) -> list[dict[str, Any]]: ...
+    def __getitem__(self, index: int | slice) -> dict[str, Any] | list[dict[str, Any]]:
+        return self.as_list()[index]
+
+    def __iter__(self) -> Iterator[dict[str, Any]]:
+        return iter(self.as_list())
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Sequence) and self.as_list() == list(other)
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (items_of, (self._keys, self._columns))
+
+    def as_list(self) -> list[dict[str, Any]]:
+        return items_of(self._keys, self._columns)
+
+
+def plain_record(record: Record) -> Record:
+    """``record`` with each ``ItemRows`` among its values as the list it stands for (the
+    record itself when it holds none)."""
+    if not any(type(value) is ItemRows for value in record.values()):
+        return record
+    return {k: v.as_list() if type(v) is ItemRows else v for k, v in record.items()}
 
 
 class LogSink(Protocol):

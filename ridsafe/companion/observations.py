@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from ridsafe.common import codec, topics
 from ridsafe.common import messages as m
 from ridsafe.common.heard import HeardRidFrame, RidFrameDecoder
-from ridsafe.common.logsink import LogSink
+from ridsafe.common.logsink import ItemRows, LogSink
 from ridsafe.companion.neighbours import NeighbourTable, claimed_id
 from ridsafe.companion.rid import Periodic
 from ridsafe.companion.telemetry import OwnTelemetry
@@ -147,24 +147,26 @@ class ObservationBatcher:
         return out
 
 
+#: The fields of a report in a ``/companion/observations`` record's items, in order.
+_RECORD_FIELDS = (
+    "t_s",
+    "uas_id",
+    "rid_timestamp_s",
+    "rssi_dbm",
+    "rx_lat_deg",
+    "rx_lon_deg",
+    "rx_alt_m",
+    "claimed_lat_deg",
+    "claimed_lon_deg",
+    "claimed_alt_m",
+)
+
+
 def batch_record(sysid: int, batch: Iterable[m.Observation]) -> dict[str, object]:
     """The ``/companion/observations`` record of one batch."""
-    items = [
-        {
-            "t_s": o.t_s,
-            "uas_id": o.uas_id,
-            "rid_timestamp_s": o.rid_timestamp_s,
-            "rssi_dbm": o.rssi_dbm,
-            "rx_lat_deg": o.rx_lat_deg,
-            "rx_lon_deg": o.rx_lon_deg,
-            "rx_alt_m": o.rx_alt_m,
-            "claimed_lat_deg": o.claimed_lat_deg,
-            "claimed_lon_deg": o.claimed_lon_deg,
-            "claimed_alt_m": o.claimed_alt_m,
-        }
-        for o in batch
-    ]
-    return {"sysid": sysid, "items": items}
+    reports = list(batch)
+    columns = tuple([getattr(o, name) for o in reports] for name in _RECORD_FIELDS)
+    return {"sysid": sysid, "items": ItemRows(_RECORD_FIELDS, columns)}
 
 
 #: Sends report messages to the GCS (``ObservationPack``), in order.

@@ -37,7 +37,7 @@ from ridsafe.common import messages as m
 from ridsafe.common import protocol_messages as pm
 from ridsafe.common.adversary import AdversaryRole
 from ridsafe.common.errors import ClockError
-from ridsafe.common.logsink import LogSink, NullSink
+from ridsafe.common.logsink import ItemRows, LogSink, NullSink
 from ridsafe.common.scenario import Scenario
 from ridsafe.common.shell import (
     AppShell,
@@ -305,17 +305,14 @@ class SimBackend:
             ]
             self.sink.log(topics.RADIO_TX, now_s, {"items": items})
         if len(self.last_heard):
-            heard = self.last_heard
-            of_tx = [(tx.sender + 1, tx.payload[0] >> 4) for tx in self.last_transmissions]
-            received = [
-                {"sender": of_tx[k][0], "receiver": r + 1, "msg_type": of_tx[k][1], "rssi_dbm": q}
-                for k, r, q in zip(
-                    heard.transmission.tolist(),
-                    heard.receiver.tolist(),
-                    heard.rssi_dbm.tolist(),
-                    strict=True,
-                )
-            ]
+            heard, sent = self.last_heard, self.last_transmissions
+            senders = np.array([tx.sender + 1 for tx in sent])[heard.transmission]
+            msg_types = np.array([tx.payload[0] >> 4 for tx in sent])[heard.transmission]
+            received = ItemRows(
+                ("sender", "receiver", "msg_type", "rssi_dbm"),
+                (senders.tolist(), (heard.receiver + 1).tolist(), msg_types.tolist(),
+                 heard.rssi_dbm.tolist()),
+            )  # fmt: skip
             self.sink.log(topics.RADIO_RX, now_s, {"items": received})
         if now_s >= self._next_truth_log_s - 1e-9:
             period = 1.0 / self.config.truth_log_hz

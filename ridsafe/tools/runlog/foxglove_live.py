@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 from ridsafe.common.errors import RidsafeError
 from ridsafe.common.frames import GeodeticOrigin
-from ridsafe.common.logsink import Record
+from ridsafe.common.logsink import Record, plain_record
 from ridsafe.tools.runlog.foxglove_channels import FoxgloveChannels
 from ridsafe.tools.runlog.writer import (
     JSON_ENCODING,
@@ -118,6 +118,7 @@ class FoxgloveLiveServer:
     def log(self, topic: str, t_s: float, record: Record) -> None:
         if self._closed:
             return
+        record = plain_record(record)
         channel = self._channels.get(topic)
         if channel is None:
             channel = self._open(topic, topic, topic_schema(topic, record))

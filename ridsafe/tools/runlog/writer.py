@@ -52,7 +52,7 @@ from mcap.writer import CompressionType, Writer
 
 from ridsafe.common import topics
 from ridsafe.common.errors import RidsafeError
-from ridsafe.common.logsink import Record
+from ridsafe.common.logsink import Record, plain_record
 
 __all__ = [
     "DEFAULT_CHUNK_SIZE",
@@ -361,6 +361,7 @@ class McapRecorder:
         """Write ``record`` on ``topic`` at sim time ``t_s`` (s, finite, >= 0)."""
         if self._closed:
             raise RecorderError(f"{topic}: log() after close() of {self.path}")
+        record = plain_record(record)
         channel_id = self._channel_ids.get(topic)
         if channel_id is None:
             channel_id = self._open_topic(topic, record)
