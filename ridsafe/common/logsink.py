@@ -48,7 +48,9 @@ class ItemRows(Sequence[dict[str, Any]]):
     @overload
     def __getitem__(self, index: slice) -> list[dict[str, Any]]: ...
     def __getitem__(self, index: int | slice) -> dict[str, Any] | list[dict[str, Any]]:
-        return self.as_list()[index]
+        if isinstance(index, slice):
+            return items_of(self._keys, tuple(column[index] for column in self._columns))
+        return {key: column[index] for key, column in zip(self._keys, self._columns, strict=True)}
 
     def __iter__(self) -> Iterator[dict[str, Any]]:
         return iter(self.as_list())

@@ -98,6 +98,7 @@ __all__ = [
     "SystemTime",
     "UnsafeRegionMsg",
     "Vec3",
+    "messages_in",
 ]
 
 _SAFETY_ARMED = int(MavModeFlag.SAFETY_ARMED)
@@ -526,3 +527,9 @@ Message: TypeAlias = (
     | LockstepDone
     | ProtocolMessage
 )
+
+
+def messages_in(message: Message) -> int:
+    """How many MAVLink messages ``message`` stands for: a run decoded together
+    (``ObservationRows``, ``RidFrameReports``) one per row, any other one."""
+    return len(message) if isinstance(message, ObservationRows | RidFrameReports) else 1

@@ -278,8 +278,7 @@ class AppShell:
         sender = f"{received.src_system}/{received.src_component}"
         message = received.message
         what = f"{type(message).__name__} from {sender} on {endpoint.name}"
-        runs = (m.ObservationRows, m.RidFrameReports)  # many messages decoded together
-        self._count_refused(reason, what, len(message) if isinstance(message, runs) else 1)
+        self._count_refused(reason, what, m.messages_in(message))
 
     def count_foreign(self, name: str, reason: str, count: int = 1) -> None:
         """Count ``count`` datagrams the runner dropped before the core (``common.runner``:

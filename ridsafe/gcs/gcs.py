@@ -329,10 +329,8 @@ class Gcs:
             self._observe_rows(now_s, sysid, message)
         elif isinstance(message, m.Observation):
             self._observe(now_s, sysid, message)
-        elif type(message) is m.RidFrameReports:  # a run of messages the GCS does not use
-            self.counters.ignored_messages += len(message)
         elif not isinstance(message, m.Heartbeat):
-            self.counters.ignored_messages += 1
+            self.counters.ignored_messages += m.messages_in(message)
 
     def _heard(self, now_s: float, peer: _Peer, sysid: int) -> None:
         peer.last_heard_s = now_s

@@ -81,3 +81,6 @@ def test_a_datagram_of_known_frames_comes_as_one_received() -> None:
     assert [r.rssi_dbm for r in received.message.reports] == [-70.0, -71.0, -72.0, -73.0]
     assert [r.frame for r in received.message.reports] == _FRAMES
     assert link.counters.accepted == 8
+    # counted as the four messages it stands for where a core refuses or ignores it
+    assert m.messages_in(received.message) == 4
+    assert m.messages_in(m.Heartbeat(18, 8, 0, 0, 4)) == 1
