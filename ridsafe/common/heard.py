@@ -9,15 +9,26 @@ advertising) makes the same report from each packet it captured.
 
 ``RidFrameDecoder`` reads the messages inside a frame: one OPEN_DRONE_ID_* domain message, or
 every message of a message pack, each with ``id_or_mac`` set to the sender id (as a real
-transponder hands them over). Decoding is a pure function of (frame, sender id); the decoder
-remembers its last results so that receivers that share one decoder (explicitly: several
-companions in one process are given the same one) decode a broadcast once.
+transponder hands them over), and what each LOCATION among them claims (``LocationClaim``:
+the claimed id as text, position and velocity). Decoding is a pure function of (frame,
+sender id); the decoder remembers its last results so that receivers that share one decoder
+(explicitly: several companions in one process are given the same one) decode a broadcast,
+and read its claims, once.
+
+A claim's velocity from the RID fields::
+
+    v_n = s_h cos(course),   v_e = s_h sin(course),   v_d = -s_v
+
+with unknown speeds taken as 0 (and an unknown course with them: RID reports none below
+walking pace).
 """
 
 from __future__ import annotations
 
+import functools
 import logging
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 
 from ridsafe.common import codec, f3411
 from ridsafe.common import messages as m
@@ -26,7 +37,15 @@ from ridsafe.common.frozen import quick_init
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["DecodedRidFrame", "HeardRidFrame", "RidFrameDecoder"]
+__all__ = [
+    "DecodedRidFrame",
+    "HeardRidFrame",
+    "LocationClaim",
+    "RidFrameDecoder",
+    "claim_of",
+    "claimed_id",
+    "velocity_ned",
+]
 
 
 @quick_init
@@ -50,17 +69,63 @@ class HeardRidFrame:
         return self.report.sender_id
 
 
+@functools.lru_cache(maxsize=1024)
+def claimed_id(id_or_mac: bytes) -> str:
+    """The claimed UAS id as text: printable ASCII kept, anything else as '?'."""
+    return "".join(chr(b) if 32 <= b < 127 else "?" for b in id_or_mac[: codec.ODID_ID_LEN])
+
+
+def velocity_ned(location: m.OdidLocation) -> m.Vec3:
+    """NED velocity (m/s) a RID LOCATION claims; unknown parts are 0."""
+    speed_h = location.speed_horizontal_m_s or 0.0
+    course = location.course_deg
+    vn = ve = 0.0
+    if course is not None:
+        vn = speed_h * math.cos(math.radians(course))
+        ve = speed_h * math.sin(math.radians(course))
+    speed_v = location.speed_vertical_m_s or 0.0
+    return (vn, ve, -speed_v)
+
+
+@quick_init
+@dataclass(frozen=True, slots=True)
+class LocationClaim:
+    """What one LOCATION claims, read once per decoded frame: the claimed id as text
+    (``claimed_id``), the position (lat_deg, lon_deg, alt_m: the geodetic altitude, else the
+    barometric one; None when any is unknown) and the NED velocity (``velocity_ned``)."""
+
+    location: m.OdidLocation
+    uas_id: str
+    position: m.Vec3 | None
+    v_ned_m_s: m.Vec3
+
+
+def claim_of(location: m.OdidLocation) -> LocationClaim:
+    alt = location.alt_geodetic_m if location.alt_geodetic_m is not None else location.alt_baro_m
+    lat, lon = location.lat_deg, location.lon_deg
+    position = None if lat is None or lon is None or alt is None else (lat, lon, alt)
+    return LocationClaim(location, claimed_id(location.id_or_mac), position, velocity_ned(location))
+
+
 @dataclass(frozen=True, slots=True)
 class DecodedRidFrame:
     """The messages read from one frame (in frame order) and why the others could not be
-    read; ``msg_type`` is the frame's F3411 type (a pack's is MESSAGE_PACK; -1: unreadable)."""
+    read; ``msg_type`` is the frame's F3411 type (a pack's is MESSAGE_PACK; -1: unreadable).
+    ``claims``: what each LOCATION among the messages claims, in order."""
 
     messages: tuple[m.Message, ...]
     errors: tuple[str, ...] = ()
     msg_type: int = -1
+    claims: tuple[LocationClaim, ...] = field(init=False)
+
+    def __post_init__(self) -> None:
+        claims = tuple(
+            claim_of(message) for message in self.messages if isinstance(message, m.OdidLocation)
+        )
+        object.__setattr__(self, "claims", claims)
 
     def locations(self) -> list[m.OdidLocation]:
-        return [message for message in self.messages if isinstance(message, m.OdidLocation)]
+        return [claim.location for claim in self.claims]
 
 
 class RidFrameDecoder:

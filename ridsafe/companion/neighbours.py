@@ -3,55 +3,29 @@
 A claim is kept ``max_age_s`` after it was heard (a 1 Hz broadcaster missing two beats is
 gone), excluding the aircraft's own serial. For the planner it becomes a
 ``planner_api.Neighbour`` in the local NED frame, flagged when the GCS has raised a
-spoofing alert for that id. Velocity from the RID fields::
-
-    v_n = s_h cos(course),   v_e = s_h sin(course),   v_d = -s_v
-
-with unknown speeds taken as 0 (and an unknown course with them: RID reports none below
-walking pace).
+spoofing alert for that id. What a LOCATION claims (id, position, velocity) is read once
+per decoded frame (``common.heard.LocationClaim``).
 """
 
 from __future__ import annotations
 
-import functools
-import math
 from collections.abc import Callable, Collection, Hashable
 from dataclasses import dataclass
 
-from ridsafe.common import codec
 from ridsafe.common import messages as m
 from ridsafe.common.frozen import quick_init
+from ridsafe.common.heard import LocationClaim, claim_of
 from ridsafe.companion.planner_api import Neighbour, Vec3
 
-__all__ = ["NeighbourTable", "velocity_ned"]
+__all__ = ["NeighbourTable"]
 
 ToLocal = Callable[[float, float, float], Vec3]
-
-
-@functools.lru_cache(maxsize=1024)
-def claimed_id(id_or_mac: bytes) -> str:
-    """The claimed UAS id as text: printable ASCII kept, anything else as '?'."""
-    return "".join(chr(b) if 32 <= b < 127 else "?" for b in id_or_mac[: codec.ODID_ID_LEN])
-
-
-def velocity_ned(location: m.OdidLocation) -> Vec3:
-    """NED velocity (m/s) a RID LOCATION claims; unknown parts are 0."""
-    speed_h = location.speed_horizontal_m_s or 0.0
-    course = location.course_deg
-    vn = ve = 0.0
-    if course is not None:
-        vn = speed_h * math.cos(math.radians(course))
-        ve = speed_h * math.sin(math.radians(course))
-    speed_v = location.speed_vertical_m_s or 0.0
-    return (vn, ve, -speed_v)
 
 
 @quick_init
 @dataclass(frozen=True, slots=True)
 class _Claim:
-    lat_deg: float
-    lon_deg: float
-    alt_m: float
+    position: Vec3  # lat_deg, lon_deg, alt_m
     v_ned_m_s: Vec3
     t_s: float  # when heard, on the clock passed to ``update``
 
@@ -72,21 +46,21 @@ class NeighbourTable:
 
     def update(self, t_s: float, location: m.OdidLocation) -> bool:
         """Record a heard LOCATION (received at ``t_s``); False if it is ours or unusable."""
-        uas_id = claimed_id(location.id_or_mac)
+        return self.update_claim(t_s, claim_of(location))
+
+    def update_claim(self, t_s: float, claim: LocationClaim) -> bool:
+        """``update`` with what the LOCATION claims already read (``DecodedRidFrame.claims``)."""
+        uas_id = claim.uas_id
         if uas_id == self.own_id:
             return False
-        alt = (
-            location.alt_geodetic_m if location.alt_geodetic_m is not None else location.alt_baro_m
-        )
-        if location.lat_deg is None or location.lon_deg is None or alt is None:
+        position = claim.position
+        if position is None:
             self.unusable += 1
             return False
         kept = self._claims.get(uas_id)
         if kept is not None and kept.t_s > t_s:
             return False  # older than what is kept
-        self._claims[uas_id] = _Claim(
-            location.lat_deg, location.lon_deg, alt, velocity_ned(location), t_s
-        )
+        self._claims[uas_id] = _Claim(position, claim.v_ned_m_s, t_s)
         return True
 
     def expire(self, now_s: float) -> list[str]:
@@ -125,7 +99,7 @@ class NeighbourTable:
                 continue
             neighbour = Neighbour(
                 uas_id=uas,
-                p_ned_m=to_local(c.lat_deg, c.lon_deg, c.alt_m),
+                p_ned_m=to_local(*c.position),
                 v_ned_m_s=c.v_ned_m_s,
                 t_s=c.t_s,
                 flagged=is_flagged,

@@ -2,12 +2,13 @@
 
 ``ObservationReporter`` takes the frames a RID receiver heard (``common.heard.HeardRidFrame``:
 frame bytes, RSSI, receive time, all together from the radio on) and reads the messages in
-each (``RidFrameDecoder``). Every LOCATION updates the neighbour table and becomes an
-``Observation`` (``make_observation``) with the RSSI of the frame it came in and the
-receiver's own position at the receive time; observations go to the GCS in batches, once per
-``observation_batch_s``, three to a message (RIDSAFE_OBSERVATION_PACK). Every LOCATION heard
-is either reported exactly once or counted under the reason it could not be (no own position,
-no claimed position); frames that do not decode, or carry no LOCATION, are counted too.
+each (``RidFrameDecoder``). What every LOCATION claims (``LocationClaim``) updates the
+neighbour table and becomes an ``Observation`` (``make_observation``) with the RSSI of the
+frame it came in and the receiver's own position at the receive time; observations go to the
+GCS in batches, once per ``observation_batch_s``, three to a message
+(RIDSAFE_OBSERVATION_PACK). Every LOCATION heard is either reported exactly once or counted
+under the reason it could not be (no own position, no claimed position); frames that do not
+decode, or carry no LOCATION, are counted too.
 """
 
 from __future__ import annotations
@@ -19,9 +20,9 @@ from dataclasses import dataclass, field
 
 from ridsafe.common import codec, topics
 from ridsafe.common import messages as m
-from ridsafe.common.heard import HeardRidFrame, RidFrameDecoder
+from ridsafe.common.heard import HeardRidFrame, LocationClaim, RidFrameDecoder
 from ridsafe.common.logsink import ItemRows, LogSink
-from ridsafe.companion.neighbours import NeighbourTable, claimed_id
+from ridsafe.companion.neighbours import NeighbourTable
 from ridsafe.companion.rid import Periodic
 from ridsafe.companion.telemetry import OwnTelemetry
 
@@ -57,30 +58,32 @@ class ObservationCounters:
 
 
 def make_observation(
-    loc: m.OdidLocation, heard: HeardRidFrame, rx_geodetic: m.Vec3, t_s: float
+    claim: LocationClaim, rssi_dbm: float, rx_geodetic: m.Vec3, t_s: float
 ) -> m.Observation | str:
-    """The report of LOCATION ``loc`` read from frame ``heard`` (``rx_geodetic``: where the
-    receiver was when it heard it, ``ReceiverFix.at``; ``t_s``: the receive time on the
-    clock reports use), or the reason it cannot be made."""
-    claimed_alt = loc.alt_geodetic_m if loc.alt_geodetic_m is not None else loc.alt_baro_m
-    if loc.lat_deg is None or loc.lon_deg is None or claimed_alt is None:
+    """The report of the LOCATION ``claim`` was read from, heard at ``rssi_dbm``
+    (``rx_geodetic``: where the receiver was when it heard it, ``ReceiverFix.at``; ``t_s``:
+    the receive time on the clock reports use), or the reason it cannot be made."""
+    position = claim.position
+    if position is None:
         return "no_claimed_position"
+    loc = claim.location
     rx_lat, rx_lon, rx_alt = rx_geodetic
+    claimed_lat, claimed_lon, claimed_alt = position
     timestamp = UNKNOWN_RID_TIMESTAMP_S if loc.timestamp_s is None else loc.timestamp_s
     return m.Observation(
         t_s=t_s,
         rx_lat_deg=rx_lat,
         rx_lon_deg=rx_lon,
         rx_alt_m=rx_alt,
-        claimed_lat_deg=loc.lat_deg,
-        claimed_lon_deg=loc.lon_deg,
+        claimed_lat_deg=claimed_lat,
+        claimed_lon_deg=claimed_lon,
         claimed_alt_m=claimed_alt,
         rid_timestamp_s=timestamp,
-        rssi_dbm=heard.rssi_dbm,
+        rssi_dbm=rssi_dbm,
         claimed_course_deg=loc.course_deg,
         claimed_speed_horizontal_m_s=loc.speed_horizontal_m_s,
         claimed_speed_vertical_m_s=loc.speed_vertical_m_s,
-        uas_id=claimed_id(loc.id_or_mac),
+        uas_id=claim.uas_id,
     )
 
 
@@ -101,34 +104,36 @@ class ObservationBatcher:
 
     def add(
         self,
-        loc: m.OdidLocation,
-        heard: HeardRidFrame,
+        claim: LocationClaim,
+        rssi_dbm: float,
         rx_geodetic: m.Vec3 | None,
         t_s: float,
     ) -> None:
-        """Batch the report of ``loc`` (``make_observation``; ``rx_geodetic`` None: the
+        """Batch the report of ``claim`` (``make_observation``; ``rx_geodetic`` None: the
         receiver does not know where it is)."""
         self.counters.heard += 1
         if rx_geodetic is None:
-            self._skip("no_own_position", loc)
+            self._skip("no_own_position", claim)
             return
-        made = make_observation(loc, heard, rx_geodetic, t_s)
+        made = make_observation(claim, rssi_dbm, rx_geodetic, t_s)
         if isinstance(made, str):
-            self._skip(made, loc)
+            self._skip(made, claim)
             return
         if len(self._pending) >= MAX_PENDING_OBSERVATIONS:
-            self._skip("batch_full", loc)
+            self._skip("batch_full", claim)
             return
-        if loc.timestamp_s is None:
+        if claim.location.timestamp_s is None:
             self.counters.unknown_rid_timestamp += 1
         self._pending.append(made)
 
-    def _skip(self, reason: str, loc: m.OdidLocation) -> None:
+    def _skip(self, reason: str, claim: LocationClaim) -> None:
         """Count a broadcast that cannot be reported (first of each reason at WARNING)."""
         count = getattr(self.counters, reason) + 1
         setattr(self.counters, reason, count)
         level = logging.WARNING if count == 1 else logging.DEBUG
-        logger.log(level, "RID from %r not reported: %s (counted)", loc.id_or_mac, reason)
+        logger.log(
+            level, "RID from %r not reported: %s (counted)", claim.location.id_or_mac, reason
+        )
 
     def take_due(self, now_s: float) -> list[m.Observation]:
         """The batch, if one is due now and not empty."""
@@ -211,9 +216,10 @@ class ObservationReporter:
             rx_sim_s = own.sim_time(heard.rx_t_s)
             if fix is not None and heard.rx_t_s != rx_t_s:
                 rx_t_s, rx_geodetic = heard.rx_t_s, fix.at(heard.rx_t_s, self.max_extrapolation_s)
-            for loc in self._locations(heard):
-                self.neighbours.update(rx_sim_s, loc)
-                self.batcher.add(loc, heard, rx_geodetic, rx_sim_s)
+            rssi_dbm = heard.report.rssi_dbm
+            for claim in self._claims(heard):
+                self.neighbours.update_claim(rx_sim_s, claim)
+                self.batcher.add(claim, rssi_dbm, rx_geodetic, rx_sim_s)
         self.send(now_s, self.batcher.take_due(now_s), own, gcs_seen, send, sink)
 
     def finish(
@@ -244,15 +250,16 @@ class ObservationReporter:
         )
         sink.log(topics.OBSERVATIONS, own.sim_time(now_s), batch_record(self.sysid, batch))
 
-    def _locations(self, heard: HeardRidFrame) -> list[m.OdidLocation]:
-        decoded = self.decoder.decode(heard.frame, heard.sender_id)
+    def _claims(self, heard: HeardRidFrame) -> tuple[LocationClaim, ...]:
+        report = heard.report
+        decoded = self.decoder.decode(report.frame, report.sender_id)
         counters = self.counters
         counters.frames += 1
         for error in decoded.errors:
             counters.frame_errors += 1
             level = logging.WARNING if counters.frame_errors == 1 else logging.DEBUG
             logger.log(level, "unreadable RID frame from %r: %s", heard.sender_id, error)
-        locations = decoded.locations()
-        if not locations:
+        claims = decoded.claims
+        if not claims:
             counters.frames_without_location += 1
-        return locations
+        return claims

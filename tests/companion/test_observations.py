@@ -15,9 +15,9 @@ from hypothesis import strategies as st
 
 from ridsafe.common import codec, f3411, rid, topics
 from ridsafe.common import messages as m
-from ridsafe.common.heard import HeardRidFrame, RidFrameDecoder
+from ridsafe.common.heard import HeardRidFrame, RidFrameDecoder, claim_of, claimed_id
 from ridsafe.common.logsink import MemorySink
-from ridsafe.companion.neighbours import NeighbourTable, claimed_id
+from ridsafe.companion.neighbours import NeighbourTable
 from ridsafe.companion.observations import (
     MAX_PENDING_OBSERVATIONS,
     UNKNOWN_RID_TIMESTAMP_S,
@@ -147,7 +147,7 @@ def test_an_observation_carries_receiver_claim_rssi_and_time() -> None:
     loc = _location(A, timestamp_s=7.3)
     fix = ReceiverFix(9.9, 36.2, -86.7, 250.0, (1.0, 0.0, 0.0))
     heard = _heard(10.0, b"", -77.25)
-    obs = make_observation(loc, heard, fix.at(heard.rx_t_s, 1.0), 10.5)
+    obs = make_observation(claim_of(loc), heard.rssi_dbm, fix.at(heard.rx_t_s, 1.0), 10.5)
     assert isinstance(obs, m.Observation)
     assert obs.t_s == 10.5
     assert obs.rx_lat_deg > 36.2 and obs.rx_lon_deg == -86.7 and obs.rx_alt_m == 250.0
@@ -159,11 +159,10 @@ def test_an_observation_carries_receiver_claim_rssi_and_time() -> None:
 
 def test_observations_without_what_they_need_are_refused_with_a_reason() -> None:
     fix = ReceiverFix(0.0, 36.0, -86.0, 200.0, (0.0, 0.0, 0.0))
-    heard = _heard(0.0, b"", -60.0)
     no_pos = replace(_location(A), lat_deg=None, lon_deg=None)
-    assert make_observation(no_pos, heard, fix.at(0.0, 1.0), 0.0) == "no_claimed_position"
+    assert make_observation(claim_of(no_pos), -60.0, fix.at(0.0, 1.0), 0.0) == "no_claimed_position"
     no_time = replace(_location(A), timestamp_s=None)
-    obs = make_observation(no_time, heard, fix.at(0.0, 1.0), 0.0)
+    obs = make_observation(claim_of(no_time), -60.0, fix.at(0.0, 1.0), 0.0)
     assert isinstance(obs, m.Observation) and obs.rid_timestamp_s == UNKNOWN_RID_TIMESTAMP_S
 
 
@@ -186,7 +185,7 @@ def test_batching_reports_every_heard_broadcast_exactly_once(
         t = k * 0.01
         while pending and pending[0] <= t:
             stamp = pending.pop(0)
-            batcher.add(_location(A, stamp), _heard(t, b"", -60.0), fix.at(t, 1.0), t)
+            batcher.add(claim_of(_location(A, stamp)), -60.0, fix.at(t, 1.0), t)
         batch = batcher.take_due(t)
         assert all(o.t_s > t - period - 1e-9 for o in batch)  # nothing waits over a period
         sent.extend(batch)
@@ -198,7 +197,7 @@ def test_batching_reports_every_heard_broadcast_exactly_once(
 
 def test_a_batch_record_has_the_topics_fields() -> None:
     fix = ReceiverFix(0.0, 36.0, -86.0, 200.0, (0.0, 0.0, 0.0))
-    obs = make_observation(_location(A), _heard(0.0, b"", -60.0), fix.at(0.0, 1.0), 0.0)
+    obs = make_observation(claim_of(_location(A)), -60.0, fix.at(0.0, 1.0), 0.0)
     assert isinstance(obs, m.Observation)
     record = batch_record(4, [obs])
     assert set(topics.TOPICS[topics.OBSERVATIONS][1]) <= set(record)
@@ -211,8 +210,8 @@ def test_a_flood_of_broadcasts_fills_one_batch_to_its_limit_and_counts_the_rest(
     fix = ReceiverFix(0.0, 36.0, -86.0, 200.0, (0.0, 0.0, 0.0))
     extra = 25
     for _ in range(MAX_PENDING_OBSERVATIONS + extra):  # all at one instant: no batch is due
-        batcher.add(_location(A), _heard(1.0, b"", -60.0), fix.at(1.0, 1.0), 1.0)
+        batcher.add(claim_of(_location(A)), -60.0, fix.at(1.0, 1.0), 1.0)
     assert batcher.counters.batch_full == extra
     assert len(batcher.take_all()) == MAX_PENDING_OBSERVATIONS
-    batcher.add(_location(A), _heard(1.0, b"", -60.0), fix.at(1.0, 1.0), 1.0)  # room again
+    batcher.add(claim_of(_location(A)), -60.0, fix.at(1.0, 1.0), 1.0)  # room again
     assert batcher.counters.batch_full == extra and len(batcher.take_all()) == 1

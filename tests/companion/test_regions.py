@@ -15,8 +15,9 @@ import pytest
 
 from ridsafe.common import frames, rid
 from ridsafe.common import messages as m
+from ridsafe.common.heard import velocity_ned
 from ridsafe.common.messages import AlertState, RegionFlags
-from ridsafe.companion.neighbours import NeighbourTable, velocity_ned
+from ridsafe.companion.neighbours import NeighbourTable
 from ridsafe.companion.planner_api import Vec3
 from ridsafe.companion.regions import RegionStore, cov_matrix
 
