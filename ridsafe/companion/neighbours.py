@@ -9,6 +9,7 @@ per decoded frame (``common.heard.LocationClaim``).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Collection, Hashable
 from dataclasses import dataclass
 
@@ -40,6 +41,10 @@ class NeighbourTable:
         # Per uas_id: the claim, the frame and the flag its Neighbour was made for.
         self._made: dict[str, tuple[_Claim, Hashable, Neighbour]] = {}
         self.unusable = 0  # LOCATIONs without a position
+        self._changes = 0  # claims kept or dropped so far: equal counts, equal claims
+        self._oldest_s = math.inf  # no claim kept was heard before this
+        # The last ``neighbours`` answer with a frame: (changes, frame, flagged, answer).
+        self._answered: tuple[int, Hashable, frozenset[str], tuple[Neighbour, ...]] | None = None
 
     def __len__(self) -> int:
         return len(self._claims)
@@ -61,13 +66,20 @@ class NeighbourTable:
         if kept is not None and kept.t_s > t_s:
             return False  # older than what is kept
         self._claims[uas_id] = _Claim(position, claim.v_ned_m_s, t_s)
+        self._changes += 1
+        self._oldest_s = min(self._oldest_s, t_s)
         return True
 
     def expire(self, now_s: float) -> list[str]:
+        """Drop the claims heard more than ``max_age_s`` before ``now_s``; their ids."""
+        if now_s - self._oldest_s <= self.max_age_s:
+            return []  # none is that old (a claim is replaced only by a later one)
         gone = [uas for uas, c in self._claims.items() if now_s - c.t_s > self.max_age_s]
         for uas in gone:
             del self._claims[uas]
             self._made.pop(uas, None)
+        self._changes += len(gone)
+        self._oldest_s = min((c.t_s for c in self._claims.values()), default=math.inf)
         return gone
 
     def neighbours(
@@ -81,8 +93,18 @@ class NeighbourTable:
 
         ``frame``: what ``to_local`` depends on (``OwnTelemetry.local_frame``); while it
         compares equal, a claim already converted is not converted again (a claim lives a
-        second, and the planner asks twice a second). None: every claim converted."""
+        second, and the planner asks twice a second), and while no claim came or went and the
+        flagged ids are the same, the answer is the last one. None: every claim converted."""
         self.expire(now_s)
+        answered = self._answered
+        if (
+            answered is not None
+            and answered[0] == self._changes
+            and frame is not None
+            and answered[1] == frame
+            and answered[2] == flagged
+        ):
+            return answered[3]
         out: list[Neighbour] = []
         made = self._made
         for uas, c in sorted(self._claims.items()):
@@ -107,4 +129,7 @@ class NeighbourTable:
             if frame is not None:
                 made[uas] = (c, frame, neighbour)
             out.append(neighbour)
-        return tuple(out)
+        answer = tuple(out)
+        if frame is not None:
+            self._answered = (self._changes, frame, frozenset(flagged), answer)
+        return answer

@@ -193,6 +193,27 @@ def test_a_claim_is_converted_once_per_frame_and_again_when_anything_changes() -
     assert len(calls) == 8
 
 
+def test_the_answer_is_kept_while_no_claim_comes_or_goes_and_the_flags_stay() -> None:
+    table = NeighbourTable("RSAF800000001", max_age_s=3.0)
+    table.update(1.0, _claim("RSAF800000002", (200.0, 10.0, -60.0), (1.0, 2.0, 0.0)))
+    table.update(2.0, _claim(SPOOFER, (-80.0, 40.0, -55.0), (0.0, 7.0, 0.0)))
+    frame = (HOME, (0.0, 0.0, 0.0))
+    first = table.neighbours(2.5, to_local, flagged=frozenset(), frame=frame)
+    assert table.neighbours(3.0, to_local, flagged=frozenset(), frame=frame) is first
+    flagged = table.neighbours(3.0, to_local, flagged={SPOOFER}, frame=frame)
+    assert flagged != first and flagged[1].flagged
+    assert table.neighbours(3.5, to_local, flagged={SPOOFER}, frame=frame) is flagged
+    table.update(3.6, _claim(SPOOFER, (-70.0, 40.0, -55.0), (0.0, 7.0, 0.0)))  # a new claim
+    newer = table.neighbours(3.7, to_local, flagged={SPOOFER}, frame=frame)
+    assert newer[1].p_ned_m[0] == pytest.approx(-70.0, abs=1e-6)
+    # 4.01 s: the claim heard at 1.0 s is gone, the answer given at 3.7 s with it.
+    (left,) = table.neighbours(4.01, to_local, flagged={SPOOFER}, frame=frame)
+    assert left.uas_id == SPOOFER and left is newer[1]
+    assert table.neighbours(6.5, to_local, flagged={SPOOFER}, frame=frame) == (left,)
+    assert table.neighbours(6.61, to_local, flagged={SPOOFER}, frame=frame) == ()
+    assert len(table) == 0
+
+
 def test_a_claim_without_position_is_counted_unusable() -> None:
     table = NeighbourTable("RSAF800000001")
     loc = replace(_claim("RSAF800000002", (0, 0, 0), (0, 0, 0)), lat_deg=None, lon_deg=None)
