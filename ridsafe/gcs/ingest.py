@@ -198,7 +198,7 @@ def _plain_values(
 _Reception = tuple[float, float, float, float, float, int]
 
 
-@dataclass
+@dataclass(slots=True)
 class _Group:
     """One open broadcast: its claim and its receptions so far, each kept as it comes as one
     ``_Reception`` (``claims_of`` turns every group's into arrays at once)."""
@@ -217,7 +217,8 @@ class _Group:
         east, north, up = rx_p_enu_m
         self.rows.append((t_s, east, north, up, rssi_dbm, rx_sysid))
         self.heard_by.add(rx_sysid)
-        self.first_t_s = min(self.first_t_s, t_s)
+        if t_s < self.first_t_s:  # noqa: PLR1730 (min() costs a call per report)
+            self.first_t_s = t_s
 
 
 _T, _X, _Y, _Z, _RSSI, _SYSID = range(6)
@@ -279,7 +280,18 @@ def _frozen(arr: _A) -> _A:
 
 def group_key(uas_id: str, rid_timestamp_s: float) -> GroupKey:
     """Key of one broadcast (the timestamp rounded to 1 ms: it travels as a float32)."""
-    return uas_id, round(rid_timestamp_s, 3)
+    rounded = _ROUNDED_TO_MS.get(rid_timestamp_s)
+    if rounded is None:  # each broadcast's timestamp comes once per receiver: round it once
+        if len(_ROUNDED_TO_MS) >= _ROUNDED_TO_MS_SIZE:
+            _ROUNDED_TO_MS.clear()
+        rounded = _ROUNDED_TO_MS[rid_timestamp_s] = round(rid_timestamp_s, 3)
+    return uas_id, rounded
+
+
+#: Timestamps -> ``round(t, 3)`` lately (Python's exact decimal rounding costs as much as the
+#: rest of filing a report).
+_ROUNDED_TO_MS: dict[float, float] = {}
+_ROUNDED_TO_MS_SIZE = 4096
 
 
 @dataclass

@@ -186,6 +186,15 @@ def test_grouping_key_tolerates_float32_timestamps() -> None:
     assert group_key(SPOOF, as_float32) == group_key(SPOOF, 1200.3)
 
 
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.floats(allow_nan=False, allow_infinity=False), min_size=1, max_size=50))
+def test_the_grouping_key_is_the_timestamp_rounded_to_the_millisecond_each_time(
+    timestamps: list[float],
+) -> None:
+    for t in timestamps + timestamps[::-1]:  # each once more: the remembered rounding
+        assert group_key(SPOOF, t) == (SPOOF, round(t, 3))
+
+
 def test_history_is_bounded_per_transmitter_and_in_transmitters() -> None:
     ingest = Ingest(GcsConfig(history_per_transmitter=3, max_transmitters=2), ORIGIN)
     for k in range(5):
