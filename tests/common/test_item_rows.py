@@ -43,6 +43,16 @@ def test_item_rows_pickle_as_columns_and_unpickle_as_the_plain_list() -> None:
     assert plain_record(plain) is plain
 
 
+def test_any_keys_make_the_dicts_dict_and_zip_would() -> None:
+    """The items are built by code written out per key set: keys that are not names (quotes,
+    backslashes, code, a repeated key) come out as ``dict(zip(keys, row))`` has them."""
+    keys = ("it's", 'a "b"', "back\\slash", "]} + 1 #", "ключ", "", "it's")
+    columns = tuple([k, k + 0.5] for k in range(len(keys)))
+    expected = [dict(zip(keys, row, strict=True)) for row in zip(*columns, strict=True)]
+    assert ItemRows(keys, columns).as_list() == expected
+    assert [list(item) for item in ItemRows(keys, columns)] == [list(dict.fromkeys(keys))] * 2
+
+
 def test_columns_of_different_lengths_are_refused() -> None:
     with pytest.raises(ValueError, match="ItemRows"):
         ItemRows(KEYS, ([1], [2, 3], [4.0]))
