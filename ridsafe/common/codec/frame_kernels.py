@@ -1,7 +1,10 @@
-"""Many MAVLink 2 packets of one kind framed at once, compiled (``link.
-frame_rid_reports``): the sim's radio hands each companion the frames it heard, some 4,000
-RIDSAFE_RID_FRAME packets a second at 64 aircraft, and every report of one frame differs from
-the others only in its first field, the signal strength.
+"""MAVLink 2 packets framed and checked many at once, compiled. Framing
+(``link.frame_rid_reports``): the sim's radio hands each companion the frames it heard, some
+4,000 RIDSAFE_RID_FRAME packets a second at 64 aircraft, and every report of one frame differs
+from the others only in its first field, the signal strength. Checking
+(``MavlinkLink.feed``): a datagram of well-formed packets (most of them: a companion's
+second of reports, a tick's heard frames) is cut into its packets and their CRCs checked in one
+call, before any of them is decoded.
 
 The packet is the one ``MavlinkLink.frame`` makes: the header (start marker, payload length,
 incompatibility flags, compatibility flags 0, sequence number, system, component, message id),
@@ -22,6 +25,8 @@ CRC_BYTES = 2
 #: The varying head of each payload: a float32.
 HEAD_BYTES = 4
 _STX_V2 = 0xFD
+_IFLAG_SIGNED = 0x01
+_SIGNATURE_BYTES = 13
 
 
 @jit_inline
@@ -72,3 +77,43 @@ def frame_headed(
         out[payload + length], out[payload + length + 1] = crc & 0xFF, crc >> 8
         at = payload + length + CRC_BYTES
         ends[i] = at
+
+
+#: ``scan_packets``'s answer for a datagram it leaves to the byte-by-byte parser.
+NOT_PLAIN = -1
+
+
+@jit
+def scan_packets(
+    buf: NDArray[np.uint8], crc_extra: NDArray[np.int16], ends: NDArray[np.int64]
+) -> int:
+    """How many packets ``buf`` holds, each packet k ending at ``ends[k]``, when it is
+    nothing but whole MAVLink 2 packets one after another, each with no unknown
+    incompatibility flag, a message id whose CRC extra ``crc_extra`` has (-1: unknown) and a
+    matching CRC; else ``NOT_PLAIN`` (garbage, a partial packet, an unknown id, a bad CRC:
+    the parser then says which). Signatures are not checked here. ``ends`` holds at least
+    ``len(buf) // (HEADER_BYTES + CRC_BYTES)`` entries."""
+    n = buf.shape[0]
+    at = 0
+    count = 0
+    while at < n:
+        if buf[at] != _STX_V2 or n - at < HEADER_BYTES + CRC_BYTES:
+            return NOT_PLAIN
+        length, incompat = buf[at + 1], buf[at + 2]
+        if incompat & ~_IFLAG_SIGNED:
+            return NOT_PLAIN
+        crc_at = at + HEADER_BYTES + length
+        end = crc_at + CRC_BYTES + (_SIGNATURE_BYTES if incompat & _IFLAG_SIGNED else 0)
+        msg_id = np.int64(buf[at + 7]) | np.int64(buf[at + 8]) << 8 | np.int64(buf[at + 9]) << 16
+        if end > n or msg_id >= crc_extra.shape[0] or crc_extra[msg_id] < 0:
+            return NOT_PLAIN
+        crc = 0xFFFF
+        for j in range(at + 1, crc_at):
+            crc = _crc_accumulate(buf[j], crc)
+        crc = _crc_accumulate(crc_extra[msg_id], crc)
+        if crc != (np.int64(buf[crc_at]) | np.int64(buf[crc_at + 1]) << 8):
+            return NOT_PLAIN
+        ends[count] = end
+        count += 1
+        at = end
+    return count

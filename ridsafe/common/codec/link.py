@@ -21,7 +21,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ridsafe.common import messages as m
-from ridsafe.common.codec.frame_kernels import CRC_BYTES, HEAD_BYTES, HEADER_BYTES, frame_headed
+from ridsafe.common.codec.frame_kernels import (
+    CRC_BYTES,
+    HEAD_BYTES,
+    HEADER_BYTES,
+    NOT_PLAIN,
+    frame_headed,
+    scan_packets,
+)
 from ridsafe.common.codec.inbound import first_invalid_field, rows_valid
 from ridsafe.common.codec.signing import ReplayWindow, SigningConfig, SigningState
 from ridsafe.common.codec.wire import (
@@ -62,6 +69,21 @@ _RID_PACKET_OVERHEAD = HEADER_BYTES + HEAD_BYTES + CRC_BYTES
 _F32_MAX = float(np.finfo(np.float32).max)
 #: Unsigned (incompatibility flags 0), its message id, its CRC extra.
 _RID_HEADER = np.array([0, _RID_FRAME.id, _RID_FRAME.crc_extra], dtype=np.int64)
+
+
+def _crc_extra_by_id() -> NDArray[np.int16]:
+    """Each message id's CRC extra, -1 where the dialect has no such id (``scan_packets``)."""
+    table = np.full(max(mav.mavlink_map) + 1, -1, dtype=np.int16)
+    for msg_id, cls in mav.mavlink_map.items():
+        table[msg_id] = cls.crc_extra
+    table.setflags(write=False)
+    return table
+
+
+_CRC_EXTRA_BY_ID = _crc_extra_by_id()
+#: ``feed`` checks a datagram of this many bytes or more in one ``scan_packets`` call: about
+#: 0.6 us a call, against about 0.7 us saved per packet (a heartbeat alone is 21 bytes).
+_SCAN_FROM_BYTES = 64
 
 
 @quick_init
@@ -217,6 +239,12 @@ class MavlinkLink:
         self._pending = b""
         received: list[Received] = []
         run: list[bytes] = []  # checked packets of one columnar message from one sender
+        if len(buf) >= _SCAN_FROM_BYTES:
+            ends = np.empty(len(buf) // (HEADER_LEN + CRC_LEN), dtype=np.int64)
+            count = scan_packets(np.frombuffer(buf, np.uint8), _CRC_EXTRA_BY_ID, ends)
+            if count != NOT_PLAIN:  # whole packets, each id known and each CRC right
+                self._take_all(buf, ends[:count].tolist(), run, received)
+                return received
         i, n = 0, len(buf)
         while i < n:
             if buf[i] != STX_V2:
@@ -289,20 +317,43 @@ class MavlinkLink:
         """Check one complete packet and decode it into ``received``, or, with columnar
         decoding, add it to ``run`` (decoded once the run ends); returns bytes consumed."""
         consumed, packet_layout = self._check_packet(packet, mlen)
-        if packet_layout is None:
-            return consumed
+        if packet_layout is not None:
+            self._take_checked(packet, packet_layout, run, received)
+        return consumed
+
+    def _take_all(
+        self, buf: bytes, ends: list[int], run: list[bytes], received: list[Received]
+    ) -> None:
+        """``_take`` of the packets of ``buf`` that end at ``ends``, whose ids and CRCs
+        ``scan_packets`` checked: their signatures, then each decoded into ``received``."""
+        start = 0
+        for end in ends:
+            packet = buf[start:end]
+            packet_layout = layout(packet[7] | packet[8] << 8 | packet[9] << 16)
+            assert packet_layout is not None  # the scan knew its CRC extra
+            signed = len(packet) > HEADER_LEN + packet[1] + CRC_LEN
+            if self._signing is None or self._signature_ok(packet, signed, packet[5], packet[6]):
+                self._take_checked(packet, packet_layout, run, received)
+            start = end
+        if run:
+            self._decode_run(run, received)
+
+    def _take_checked(
+        self, packet: bytes, packet_layout: Layout, run: list[bytes], received: list[Received]
+    ) -> None:
+        """Decode one checked packet into ``received`` or, with columnar decoding, add it to
+        ``run`` (decoded once the run ends)."""
         if self._columnar and packet_layout.decode_rows is not None:
             last = run[-1] if run else packet
             if last[5:10] != packet[5:10] or last[2] != packet[2]:  # sender, id, signed
                 self._decode_run(run, received)
             run.append(packet)
-            return consumed
+            return
         if run:
             self._decode_run(run, received)
-        item = self._decoded(packet_layout, packet, mlen)
+        item = self._decoded(packet_layout, packet, packet[1])
         if item is not None:
             received.append(item)
-        return consumed
 
     def _check_packet(self, packet: bytes, mlen: int) -> tuple[int, Layout | None]:
         """Check one complete packet's id, CRC and signature; returns (bytes consumed, its
@@ -470,11 +521,12 @@ def warm_up_columnar() -> m.ObservationRows:
 @functools.cache
 def warm_up_batches() -> None:
     """Load (or compile) the kernels of the batched encodings once per process, before a run
-    needs them: a companion's batch of reports (``wire.encode_payloads``) and the sim's RID
-    frame reports framed together (``frame_rid_reports``)."""
+    needs them: a companion's batch of reports (``wire.encode_payloads``), a datagram's
+    packets checked together (``scan_packets``) and the sim's RID frame reports framed
+    together (``frame_rid_reports``)."""
     report = m.Observation(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -70.0, None, None, None, "W")
     link = MavlinkLink(1, 1)
-    link.pack_each([m.ObservationPack((report,))])
+    MavlinkLink(2, 1).feed(link.pack_each([m.ObservationPack((report,))])[0])
     tails = RidFrameTails.of([m.RidFrameReport(b"\x12" + bytes(24), 0.0, b"W", 3)])
     frame_rid_reports([link], [1], tails, np.zeros(1, np.int64), np.array([-70.0]))
 
