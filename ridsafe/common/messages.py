@@ -415,11 +415,12 @@ class ObservationPack:
 
 @dataclass(frozen=True, eq=False)
 class ObservationRows:
-    """Consecutive RIDSAFE_OBSERVATION messages of one sender, decoded together (by a link
-    with columnar decoding, as the GCS's are): row i of ``values`` holds the i-th
-    ``Observation``'s float fields in ``OBSERVATION_COLUMNS`` order, NaN where it has None,
-    and ``uas_id[i]`` its id. Received only, never sent: on the wire each row is a report of a
-    RIDSAFE_OBSERVATION or a RIDSAFE_OBSERVATION_PACK."""
+    """Reports of one receiver as columns: row i of ``values`` holds the i-th ``Observation``'s
+    float fields in ``OBSERVATION_COLUMNS`` order, NaN where it has None, and ``uas_id[i]``
+    its id. Received: consecutive RIDSAFE_OBSERVATION(_PACK) messages of one sender decoded
+    together (by a link with columnar decoding, as the GCS's are). Sent: a companion's batch,
+    which a link sends as RIDSAFE_OBSERVATION_PACKs, three reports to a pack
+    (``wire.encode_payloads``); on the wire each row is one report."""
 
     values: NDArray[np.float64]  # (n, len(OBSERVATION_COLUMNS)), read-only
     uas_id: tuple[str, ...]
@@ -427,11 +428,20 @@ class ObservationRows:
     @classmethod
     def of(cls, observations: Sequence[Observation]) -> ObservationRows:
         """The rows of ``observations``, in order."""
-        values = np.array(  # numpy makes None NaN in a float array
-            [_OBSERVATION_FLOATS(o) for o in observations], dtype=np.float64
-        ).reshape(len(observations), len(OBSERVATION_COLUMNS))
+        return cls.of_rows([_OBSERVATION_FLOATS(o) for o in observations],
+                           [o.uas_id for o in observations])  # fmt: skip
+
+    @classmethod
+    def of_rows(
+        cls, rows: Sequence[Sequence[float | None]], uas_id: Sequence[str]
+    ) -> ObservationRows:
+        """Rows of ``OBSERVATION_COLUMNS`` values (None where unknown) with their ids."""
+        if len(rows) != len(uas_id):
+            raise ValueError(f"ObservationRows: {len(rows)} rows, {len(uas_id)} ids")
+        values = np.array(rows, dtype=np.float64)  # numpy makes None NaN in a float array
+        values = values.reshape(len(rows), len(OBSERVATION_COLUMNS))
         values.setflags(write=False)
-        return cls(values, tuple(o.uas_id for o in observations))
+        return cls(values, tuple(uas_id))
 
     def __len__(self) -> int:
         return len(self.uas_id)

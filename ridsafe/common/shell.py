@@ -40,7 +40,7 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 from ridsafe.common import messages as m
-from ridsafe.common.codec import LinkCounters, MavlinkLink, Received, encode_payload
+from ridsafe.common.codec import LinkCounters, MavlinkLink, Received, encode_payload, pack_rows
 from ridsafe.common.errors import WireError
 
 logger = logging.getLogger(__name__)
@@ -115,8 +115,8 @@ class Endpoint:
 
     def send_all(self, messages: Sequence[m.Message], component: int | None = None) -> None:
         """``send`` of each message, in order, encoded together where that is quicker (a
-        batch of observation packs: ``MavlinkLink.pack_each``); when one does not fit,
-        each is sent by ``send``, which says which."""
+        batch of reports: ``MavlinkLink.pack_each``); when one does not fit, each is sent by
+        ``send``, which says which."""
         link = self.link if component is None else self.senders[component]
         try:
             self.outbox.extend(link.pack_each(messages))
@@ -127,9 +127,14 @@ class Endpoint:
     def send(self, message: m.Message, component: int | None = None) -> None:
         """Queue ``message`` from the core's identity, or from ``component``'s. A message
         whose values do not fit its MAVLink fields is logged, counted and not sent: a value
-        that crept in from outside must not take the core down (a pack of reports is sent
-        report by report instead, so only the one that does not fit is lost)."""
+        that crept in from outside must not take the core down (a batch of reports goes pack
+        by pack, and a pack that does not fit report by report, so only the report that does
+        not fit is lost)."""
         link = self.link if component is None else self.senders[component]
+        if type(message) is m.ObservationRows:  # a batch of reports: pack by pack
+            for pack in pack_rows(message):
+                self.send(pack, component)
+            return
         try:
             self.outbox.append(link.pack(message))
         except _ENCODE_ERRORS as exc:

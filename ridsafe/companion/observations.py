@@ -3,12 +3,12 @@
 ``ObservationReporter`` takes the frames a RID receiver heard (``common.heard.HeardRidFrame``:
 frame bytes, RSSI, receive time, all together from the radio on) and reads the messages in
 each (``RidFrameDecoder``). What every LOCATION claims (``LocationClaim``) updates the
-neighbour table and becomes an ``Observation`` (``make_observation``) with the RSSI of the
-frame it came in and the receiver's own position at the receive time; observations go to the
-GCS in batches, once per ``observation_batch_s``, three to a message
-(RIDSAFE_OBSERVATION_PACK). Every LOCATION heard is either reported exactly once or counted
-under the reason it could not be (no own position, no claimed position); frames that do not
-decode, or carry no LOCATION, are counted too.
+neighbour table and becomes a report (``observation_row``: an ``Observation``'s values) with
+the RSSI of the frame it came in and the receiver's own position at the receive time; reports
+go to the GCS in batches (``m.ObservationRows``), once per ``observation_batch_s``, three to
+a message (RIDSAFE_OBSERVATION_PACK). Every LOCATION heard is either reported exactly once or
+counted under the reason it could not be (no own position, no claimed position); frames that
+do not decode, or carry no LOCATION, are counted too.
 """
 
 from __future__ import annotations
@@ -31,9 +31,10 @@ __all__ = [
     "ObservationBatcher",
     "ObservationCounters",
     "ObservationReporter",
+    "ReportRow",
     "SendObservation",
     "batch_record",
-    "make_observation",
+    "observation_row",
 ]
 
 logger = logging.getLogger(__name__)
@@ -57,9 +58,17 @@ class ObservationCounters:
     batch_full: int = 0  # dropped: the pending batch already held MAX_PENDING_OBSERVATIONS
 
 
-def make_observation(
+#: One report as a batch keeps it: an ``Observation``'s values in ``m.OBSERVATION_COLUMNS``
+#: order, None where unknown (its claimed id goes beside it).
+ReportRow = tuple[
+    float, float, float, float, float, float, float, float, float,
+    float | None, float | None, float | None,
+]  # fmt: skip
+
+
+def observation_row(
     claim: LocationClaim, rssi_dbm: float, rx_geodetic: m.Vec3, t_s: float
-) -> m.Observation | str:
+) -> ReportRow | str:
     """The report of the LOCATION ``claim`` was read from, heard at ``rssi_dbm``
     (``rx_geodetic``: where the receiver was when it heard it, ``ReceiverFix.at``; ``t_s``:
     the receive time on the clock reports use), or the reason it cannot be made."""
@@ -70,21 +79,10 @@ def make_observation(
     rx_lat, rx_lon, rx_alt = rx_geodetic
     claimed_lat, claimed_lon, claimed_alt = position
     timestamp = UNKNOWN_RID_TIMESTAMP_S if loc.timestamp_s is None else loc.timestamp_s
-    return m.Observation(
-        t_s=t_s,
-        rx_lat_deg=rx_lat,
-        rx_lon_deg=rx_lon,
-        rx_alt_m=rx_alt,
-        claimed_lat_deg=claimed_lat,
-        claimed_lon_deg=claimed_lon,
-        claimed_alt_m=claimed_alt,
-        rid_timestamp_s=timestamp,
-        rssi_dbm=rssi_dbm,
-        claimed_course_deg=loc.course_deg,
-        claimed_speed_horizontal_m_s=loc.speed_horizontal_m_s,
-        claimed_speed_vertical_m_s=loc.speed_vertical_m_s,
-        uas_id=claim.uas_id,
-    )
+    return (
+        t_s, rx_lat, rx_lon, rx_alt, claimed_lat, claimed_lon, claimed_alt, timestamp, rssi_dbm,
+        loc.course_deg, loc.speed_horizontal_m_s, loc.speed_vertical_m_s,
+    )  # fmt: skip
 
 
 #: At most this many observations wait for one batch: a flood of RID frames (or a paused
@@ -95,11 +93,12 @@ MAX_PENDING_OBSERVATIONS = 4096
 
 @dataclass
 class ObservationBatcher:
-    """Collects observations and releases them once per ``period_s``, in arrival order."""
+    """Collects reports and releases them once per ``period_s``, in arrival order."""
 
     period_s: float
     counters: ObservationCounters = field(default_factory=ObservationCounters)
-    _pending: list[m.Observation] = field(default_factory=list)
+    _rows: list[ReportRow] = field(default_factory=list)
+    _ids: list[str] = field(default_factory=list)  # each row's claimed id
     _timer: Periodic | None = None
 
     def add(
@@ -109,22 +108,23 @@ class ObservationBatcher:
         rx_geodetic: m.Vec3 | None,
         t_s: float,
     ) -> None:
-        """Batch the report of ``claim`` (``make_observation``; ``rx_geodetic`` None: the
+        """Batch the report of ``claim`` (``observation_row``; ``rx_geodetic`` None: the
         receiver does not know where it is)."""
         self.counters.heard += 1
         if rx_geodetic is None:
             self._skip("no_own_position", claim)
             return
-        made = make_observation(claim, rssi_dbm, rx_geodetic, t_s)
+        made = observation_row(claim, rssi_dbm, rx_geodetic, t_s)
         if isinstance(made, str):
             self._skip(made, claim)
             return
-        if len(self._pending) >= MAX_PENDING_OBSERVATIONS:
+        if len(self._rows) >= MAX_PENDING_OBSERVATIONS:
             self._skip("batch_full", claim)
             return
         if claim.location.timestamp_s is None:
             self.counters.unknown_rid_timestamp += 1
-        self._pending.append(made)
+        self._rows.append(made)
+        self._ids.append(claim.uas_id)
 
     def _skip(self, reason: str, claim: LocationClaim) -> None:
         """Count a broadcast that cannot be reported (first of each reason at WARNING)."""
@@ -135,19 +135,21 @@ class ObservationBatcher:
             level, "RID from %r not reported: %s (counted)", claim.location.id_or_mac, reason
         )
 
-    def take_due(self, now_s: float) -> list[m.Observation]:
+    def take_due(self, now_s: float) -> m.ObservationRows | None:
         """The batch, if one is due now and not empty."""
         if self._timer is None:
             self._timer = Periodic(self.period_s)
-        if not self._timer.due(now_s) or not self._pending:
-            return []
-        out, self._pending = self._pending, []
+        if not self._timer.due(now_s) or not self._rows:
+            return None
         self.counters.batches += 1
-        self.counters.reported += len(out)
-        return out
+        return self.take_all()
 
-    def take_all(self) -> list[m.Observation]:
-        out, self._pending = self._pending, []
+    def take_all(self) -> m.ObservationRows | None:
+        """Every report batched (None: none)."""
+        if not self._rows:
+            return None
+        out = m.ObservationRows.of_rows(self._rows, self._ids)
+        self._rows, self._ids = [], []
         self.counters.reported += len(out)
         return out
 
@@ -167,14 +169,20 @@ _RECORD_FIELDS = (
 )
 
 
-def batch_record(sysid: int, batch: Iterable[m.Observation]) -> dict[str, object]:
+#: Where each of ``_RECORD_FIELDS`` is in ``m.OBSERVATION_COLUMNS`` (-1: the claimed id).
+_RECORD_COLUMNS = tuple(
+    -1 if name == "uas_id" else m.OBSERVATION_COLUMNS.index(name) for name in _RECORD_FIELDS
+)
+
+
+def batch_record(sysid: int, batch: m.ObservationRows) -> dict[str, object]:
     """The ``/companion/observations`` record of one batch."""
-    reports = list(batch)
-    columns = tuple([getattr(o, name) for o in reports] for name in _RECORD_FIELDS)
+    by_column = batch.values.T.tolist()
+    columns = tuple(list(batch.uas_id) if k < 0 else by_column[k] for k in _RECORD_COLUMNS)
     return {"sysid": sysid, "items": ItemRows(_RECORD_FIELDS, columns)}
 
 
-#: Sends report messages to the GCS (``ObservationPack``), in order.
+#: Sends report messages to the GCS (a batch: ``ObservationRows``), in order.
 SendObservation = Callable[[list[m.Message]], None]
 
 
@@ -231,23 +239,17 @@ class ObservationReporter:
     def send(
         self,
         now_s: float,
-        batch: list[m.Observation],
+        batch: m.ObservationRows | None,
         own: OwnTelemetry,
         gcs_seen: bool,
         send: SendObservation,
         sink: LogSink,
     ) -> None:
-        if not batch:
+        if batch is None:
             return
         if not gcs_seen:
             self.counters.sent_before_gcs_seen += len(batch)
-        per_pack = codec.OBSERVATIONS_PER_PACK
-        send(
-            [
-                m.ObservationPack(tuple(batch[i : i + per_pack]))
-                for i in range(0, len(batch), per_pack)
-            ]
-        )
+        send([batch])
         sink.log(topics.OBSERVATIONS, own.sim_time(now_s), batch_record(self.sysid, batch))
 
     def _claims(self, heard: HeardRidFrame) -> tuple[LocationClaim, ...]:

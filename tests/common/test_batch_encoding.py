@@ -1,6 +1,6 @@
 """Messages encoded and framed many at a time, to the bytes one at a time gives: a companion's
-batch of observation packs (``codec.encode_payloads``) and the sim's RID frame reports
-(``MavlinkLink.frame_rid_reports``)."""
+batch of reports, sent as observation packs (``codec.encode_payloads``), and the sim's RID
+frame reports (``MavlinkLink.frame_rid_reports``)."""
 
 from __future__ import annotations
 
@@ -47,22 +47,27 @@ def _each_encoded(packs: list[m.ObservationPack]) -> list[codec.Payload] | None:
 
 
 @settings(max_examples=400)
-@given(packs=st.lists(st.lists(_report, min_size=1, max_size=3), min_size=1, max_size=4))
-def test_a_batch_of_packs_encodes_to_the_bytes_of_each_pack_encoded_alone(
-    packs: list[list[m.Observation]],
+@given(reports=st.lists(_report, min_size=1, max_size=10))
+def test_a_batch_encodes_to_the_bytes_of_each_of_its_packs_encoded_alone(
+    reports: list[m.Observation],
 ) -> None:
-    """``encode_payloads``' compiled pass: the same bytes as ``encode_payload`` pack by pack,
-    and an error where that raises one."""
-    sent = [m.ObservationPack(tuple(reports)) for reports in packs]
-    alone = _each_encoded(sent)
+    """``encode_payloads``' compiled pass over a batch: the bytes ``encode_payload`` gives its
+    packs (three reports to a pack, ``codec.pack_rows``) one by one, and an error where that
+    raises one."""
+    batch = m.ObservationRows.of(reports)
+    packs = codec.pack_rows(batch)
+    in_packs = [o for pack in packs for o in pack.observations]
+    assert repr(in_packs) == repr(batch.observations())  # NaN as NaN
+    assert [len(pack.observations) for pack in packs[:-1]] == [3] * (len(packs) - 1)
+    alone = _each_encoded(packs)
     if alone is None:
         with pytest.raises((WireError, struct.error, ValueError, OverflowError)):
-            codec.encode_payloads(sent)
+            codec.encode_payloads([batch])
     else:
-        assert codec.encode_payloads(sent) == alone
+        assert codec.encode_payloads([batch]) == alone
 
 
-def test_a_batch_of_ordinary_packs_takes_the_compiled_pass() -> None:
+def test_a_batch_of_ordinary_reports_takes_the_compiled_pass() -> None:
     """So the equality above is the compiled pass's, not the fallback's with itself."""
     rng = random.Random(5)
     reports = [
@@ -71,10 +76,10 @@ def test_a_batch_of_ordinary_packs_takes_the_compiled_pass() -> None:
                       f"RSAF8000000{k:02d}")
         for k in range(7)
     ]  # fmt: skip
-    packs = [m.ObservationPack(tuple(reports[i : i + 3])) for i in range(0, 7, 3)]
-    payloads = codec.observation_pack_payloads(packs)
+    batch = m.ObservationRows.of(reports)
+    payloads = codec.observation_rows_payloads(batch)
     assert payloads is not None
-    assert payloads == [codec.encode_payload(pack).data for pack in packs]
+    assert payloads == [codec.encode_payload(pack).data for pack in codec.pack_rows(batch)]
 
 
 def test_a_report_with_a_course_or_speed_not_finite_goes_with_them_unknown() -> None:
@@ -85,7 +90,7 @@ def test_a_report_with_a_course_or_speed_not_finite_goes_with_them_unknown() -> 
         1.0, 36.1, -86.8, 200.0, 36.1, -86.8, 210.0, 1.0, -70.0, None, None, None, "A"
     )
     assert _round_trip(report) == _round_trip(unknown)
-    assert codec.encode_payloads([m.ObservationPack((report,))]) == [
+    assert codec.encode_payloads([m.ObservationRows.of([report])]) == [
         codec.encode_payload(m.ObservationPack((unknown,)))
     ]
 

@@ -155,22 +155,36 @@ def test_a_shell_behind_a_real_socket_talks_to_pymavlink() -> None:
         assert (parsed[0].get_srcSystem(), parsed[0].get_srcComponent()) == (3, 191)
 
 
-def test_a_batch_of_packs_with_a_report_that_does_not_fit_loses_that_report_alone() -> None:
-    """``send_all`` encodes the batch together; when that fails, each pack goes by
-    ``send`` (and its reports one by one), in order."""
+def test_a_batch_with_a_report_that_does_not_fit_loses_that_report_alone() -> None:
+    """``send_all`` encodes a batch of reports together, three to a pack; when that fails,
+    each pack goes by ``send`` (and the reports of the one that does not fit one by one), in
+    order."""
     fits = m.Observation(
         1.0, 36.1, -86.8, 200.0, 36.1, -86.8, 210.0, 1.0, -70.0, 0.0, 1.0, 0.0, "A"
     )
     too_long_id = replace(fits, uas_id="X" * 21)
     shell = _shell()
-    shell.send_all("gcs", [m.ObservationPack((fits, fits)), m.ObservationPack((too_long_id, fits))])
+    shell.send_all("gcs", [m.ObservationRows.of([fits, fits, fits, too_long_id, fits])])
     endpoint = shell.endpoints["gcs"]
     assert endpoint.unencodable == 1 and len(endpoint.outbox) == 2
     ((_, data),) = shell.flush()
     received = MavlinkLink(255, 190).feed(data)
     assert isinstance(received[0].message, m.ObservationRows)
-    assert received[0].message.observations() == [fits, fits]
+    assert received[0].message.observations() == [fits, fits, fits]
     assert [r.message for r in received[1:]] == [fits]
+
+
+def test_a_batch_of_reports_goes_three_to_a_pack() -> None:
+    fits = m.Observation(
+        1.0, 36.1, -86.8, 200.0, 36.1, -86.8, 210.0, 1.0, -70.0, 0.0, 1.0, 0.0, "A"
+    )
+    shell = _shell()
+    shell.send_all("gcs", [m.ObservationRows.of([replace(fits, t_s=k) for k in range(7)])])
+    assert len(shell.endpoints["gcs"].outbox) == 3  # packs of 3, 3 and 1
+    ((_, data),) = shell.flush()
+    (received,) = MavlinkLink(255, 190, columnar=True).feed(data)
+    assert isinstance(received.message, m.ObservationRows)
+    assert [o.t_s for o in received.message.observations()] == list(range(7))
 
 
 def test_a_pack_of_reports_that_does_not_fit_goes_report_by_report() -> None:

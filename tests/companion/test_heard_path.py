@@ -53,5 +53,6 @@ def test_each_observation_carries_the_rssi_of_its_own_reception() -> None:
     assert counters["observations.frame_errors"] == 0
     heard = counters["observations.heard"]
     assert heard >= len(reported)
-    waiting = len(companion.observations.batcher.take_all())  # the batch not yet due
+    batch = companion.observations.batcher.take_all()  # the batch not yet due
+    waiting = 0 if batch is None else len(batch)
     assert heard == len(reported) + counters["observations.no_own_position"] + waiting

@@ -15,7 +15,13 @@ from hypothesis import strategies as st
 
 from ridsafe.common import codec, f3411, rid, topics
 from ridsafe.common import messages as m
-from ridsafe.common.heard import HeardRidFrame, RidFrameDecoder, claim_of, claimed_id
+from ridsafe.common.heard import (
+    HeardRidFrame,
+    LocationClaim,
+    RidFrameDecoder,
+    claim_of,
+    claimed_id,
+)
 from ridsafe.common.logsink import MemorySink
 from ridsafe.companion.neighbours import NeighbourTable
 from ridsafe.companion.observations import (
@@ -24,7 +30,7 @@ from ridsafe.companion.observations import (
     ObservationBatcher,
     ObservationReporter,
     batch_record,
-    make_observation,
+    observation_row,
 )
 from ridsafe.companion.telemetry import OwnTelemetry, ReceiverFix
 
@@ -54,17 +60,24 @@ def _own() -> OwnTelemetry:
 
 
 class _Sent:
-    """What the reporter sends: packs of at most three reports, unpacked."""
+    """What the reporter sends: its batches (``ObservationRows``), unpacked."""
 
     def __init__(self) -> None:
         self.observations: list[m.Observation] = []
-        self.packs = 0
+        self.batches = 0
 
     def __call__(self, messages: list[m.Message]) -> None:
         for message in messages:
-            assert isinstance(message, m.ObservationPack) and 1 <= len(message.observations) <= 3
-            self.observations.extend(message.observations)
-            self.packs += 1
+            assert isinstance(message, m.ObservationRows) and len(message) >= 1
+            self.observations.extend(message.observations())
+            self.batches += 1
+
+
+def _report(claim: LocationClaim, rssi_dbm: float, rx: m.Vec3, t_s: float) -> m.Observation:
+    """The report ``observation_row`` makes, as the ``Observation`` it goes as."""
+    row = observation_row(claim, rssi_dbm, rx, t_s)
+    assert not isinstance(row, str)
+    return m.ObservationRows.of_rows([row], [claim.uas_id]).observation(0)
 
 
 def _reporter(period_s: float = 0.25) -> ObservationReporter:
@@ -147,8 +160,7 @@ def test_an_observation_carries_receiver_claim_rssi_and_time() -> None:
     loc = _location(A, timestamp_s=7.3)
     fix = ReceiverFix(9.9, 36.2, -86.7, 250.0, (1.0, 0.0, 0.0))
     heard = _heard(10.0, b"", -77.25)
-    obs = make_observation(claim_of(loc), heard.rssi_dbm, fix.at(heard.rx_t_s, 1.0), 10.5)
-    assert isinstance(obs, m.Observation)
+    obs = _report(claim_of(loc), heard.rssi_dbm, fix.at(heard.rx_t_s, 1.0), 10.5)
     assert obs.t_s == 10.5
     assert obs.rx_lat_deg > 36.2 and obs.rx_lon_deg == -86.7 and obs.rx_alt_m == 250.0
     assert (obs.claimed_lat_deg, obs.claimed_lon_deg, obs.claimed_alt_m) == (36.1, -86.8, 230.0)
@@ -160,10 +172,10 @@ def test_an_observation_carries_receiver_claim_rssi_and_time() -> None:
 def test_observations_without_what_they_need_are_refused_with_a_reason() -> None:
     fix = ReceiverFix(0.0, 36.0, -86.0, 200.0, (0.0, 0.0, 0.0))
     no_pos = replace(_location(A), lat_deg=None, lon_deg=None)
-    assert make_observation(claim_of(no_pos), -60.0, fix.at(0.0, 1.0), 0.0) == "no_claimed_position"
+    assert observation_row(claim_of(no_pos), -60.0, fix.at(0.0, 1.0), 0.0) == "no_claimed_position"
     no_time = replace(_location(A), timestamp_s=None)
-    obs = make_observation(claim_of(no_time), -60.0, fix.at(0.0, 1.0), 0.0)
-    assert isinstance(obs, m.Observation) and obs.rid_timestamp_s == UNKNOWN_RID_TIMESTAMP_S
+    obs = _report(claim_of(no_time), -60.0, fix.at(0.0, 1.0), 0.0)
+    assert obs.rid_timestamp_s == UNKNOWN_RID_TIMESTAMP_S
 
 
 def test_claimed_ids_are_printable_ascii() -> None:
@@ -187,9 +199,11 @@ def test_batching_reports_every_heard_broadcast_exactly_once(
             stamp = pending.pop(0)
             batcher.add(claim_of(_location(A, stamp)), -60.0, fix.at(t, 1.0), t)
         batch = batcher.take_due(t)
-        assert all(o.t_s > t - period - 1e-9 for o in batch)  # nothing waits over a period
-        sent.extend(batch)
-    sent.extend(batcher.take_all())
+        reports = [] if batch is None else batch.observations()
+        assert all(o.t_s > t - period - 1e-9 for o in reports)  # nothing waits over a period
+        sent.extend(reports)
+    rest = batcher.take_all()
+    sent.extend([] if rest is None else rest.observations())
     expected = [round(rid.seconds_after_hour(1_767_268_800.0 + a), 1) for a in arrivals]
     assert sorted(o.rid_timestamp_s for o in sent) == sorted(expected)
     assert batcher.counters.reported == batcher.counters.heard == len(arrivals)
@@ -197,9 +211,8 @@ def test_batching_reports_every_heard_broadcast_exactly_once(
 
 def test_a_batch_record_has_the_topics_fields() -> None:
     fix = ReceiverFix(0.0, 36.0, -86.0, 200.0, (0.0, 0.0, 0.0))
-    obs = make_observation(claim_of(_location(A)), -60.0, fix.at(0.0, 1.0), 0.0)
-    assert isinstance(obs, m.Observation)
-    record = batch_record(4, [obs])
+    record = batch_record(4, m.ObservationRows.of([_report(claim_of(_location(A)), -60.0,
+                                                           fix.at(0.0, 1.0), 0.0)]))  # fmt: skip
     assert set(topics.TOPICS[topics.OBSERVATIONS][1]) <= set(record)
     (item,) = cast(list[dict[str, float]], record["items"])
     assert math.isclose(item["rssi_dbm"], -60.0)
@@ -212,6 +225,9 @@ def test_a_flood_of_broadcasts_fills_one_batch_to_its_limit_and_counts_the_rest(
     for _ in range(MAX_PENDING_OBSERVATIONS + extra):  # all at one instant: no batch is due
         batcher.add(claim_of(_location(A)), -60.0, fix.at(1.0, 1.0), 1.0)
     assert batcher.counters.batch_full == extra
-    assert len(batcher.take_all()) == MAX_PENDING_OBSERVATIONS
+    full = batcher.take_all()
+    assert full is not None and len(full) == MAX_PENDING_OBSERVATIONS
     batcher.add(claim_of(_location(A)), -60.0, fix.at(1.0, 1.0), 1.0)  # room again
-    assert batcher.counters.batch_full == extra and len(batcher.take_all()) == 1
+    again = batcher.take_all()
+    assert batcher.counters.batch_full == extra and again is not None and len(again) == 1
+    assert batcher.take_all() is None

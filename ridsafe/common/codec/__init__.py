@@ -33,7 +33,11 @@ from ridsafe.common.codec.link import (
     warm_up_columnar,
 )
 from ridsafe.common.codec.registry import from_mavlink, to_mavlink
-from ridsafe.common.codec.ridsafe_messages import OBSERVATIONS_PER_PACK, observation_pack_payloads
+from ridsafe.common.codec.ridsafe_messages import (
+    OBSERVATIONS_PER_PACK,
+    observation_rows_payloads,
+    pack_rows,
+)
 from ridsafe.common.codec.signing import (
     SIGNING_EPOCH_UNIX_S,
     ReplayWindow,
@@ -81,8 +85,9 @@ __all__ = [
     "from_mavlink",
     "load_signing_key",
     "message_from_fields",
-    "observation_pack_payloads",
+    "observation_rows_payloads",
     "odid_fields",
+    "pack_rows",
     "signing_timestamp_from_unix",
     "to_mavlink",
     "warm_up_batches",

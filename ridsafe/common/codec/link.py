@@ -526,7 +526,7 @@ def warm_up_batches() -> None:
     together (``frame_rid_reports``)."""
     report = m.Observation(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -70.0, None, None, None, "W")
     link = MavlinkLink(1, 1)
-    MavlinkLink(2, 1).feed(link.pack_each([m.ObservationPack((report,))])[0])
+    MavlinkLink(2, 1).feed(link.pack_each([m.ObservationRows.of([report])])[0])
     tails = RidFrameTails.of([m.RidFrameReport(b"\x12" + bytes(24), 0.0, b"W", 3)])
     frame_rid_reports([link], [1], tails, np.zeros(1, np.int64), np.array([-70.0]))
 

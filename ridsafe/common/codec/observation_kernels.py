@@ -1,7 +1,7 @@
 """RIDSAFE_OBSERVATION and RIDSAFE_OBSERVATION_PACK payloads decoded many at a time, compiled
 (``ridsafe_messages.observation_rows``, ``observation_pack_rows``): a GCS takes some 4,000
 reports a second at 64 aircraft; and a companion's packs encoded a batch at a time
-(``ridsafe_messages.observation_pack_payloads``, ``encode_observation_packs``).
+(``ridsafe_messages.observation_rows_payloads``, ``encode_observation_packs``).
 
 The payloads come joined, each zero-padded to its message's stride (``RECORD_STRIDE``,
 ``PACK_STRIDE``) so that every field sits at an offset its size divides: the kernels read

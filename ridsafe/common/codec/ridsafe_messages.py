@@ -237,25 +237,38 @@ def _observation_pack_to(msg: m.ObservationPack) -> Wire:
 _ID_BYTES: dict[str, bytes] = {}
 
 
-def observation_pack_payloads(packs: Sequence[m.ObservationPack]) -> list[bytes] | None:
-    """The payloads of RIDSAFE_OBSERVATION_PACK messages (as framed: trailing zeros trimmed),
-    encoded together: each the bytes ``_observation_pack_to`` gives its pack (a companion
-    sends a second's reports of the fleet, some 60 to 130, in one go). None when a pack is
-    one that encoding refuses or a value does not fit its field: the caller then encodes them
-    one by one, which says which and why."""
-    counts = [len(pack.observations) for pack in packs]
-    if not all(1 <= count <= OBSERVATIONS_PER_PACK for count in counts):
-        return None
-    observations = [o for pack in packs for o in pack.observations]
+def observation_rows_payloads(rows: m.ObservationRows) -> list[bytes] | None:
+    """A companion's batch of reports (some 60 to 130 a second) as the payloads of the
+    RIDSAFE_OBSERVATION_PACKs that carry them three to a pack, in order, encoded together:
+    each the bytes ``_observation_pack_to`` gives its ``ObservationPack`` (``pack_rows``).
+    None when a report does not fit its fields (or there is none): the caller then sends the
+    packs one by one, which says which and why."""
+    n, per_pack = len(rows), OBSERVATIONS_PER_PACK
+    counts = [per_pack] * (n // per_pack) + ([n % per_pack] if n % per_pack else [])
+    return _packs_payloads(rows, counts) if counts else None
+
+
+def pack_rows(rows: m.ObservationRows) -> list[m.ObservationPack]:
+    """The ``ObservationPack`` messages ``rows`` goes as, three reports to a pack, in order."""
+    per_pack = OBSERVATIONS_PER_PACK
+    reports = rows.observations()
+    return [
+        m.ObservationPack(tuple(reports[i : i + per_pack]))
+        for i in range(0, len(reports), per_pack)
+    ]
+
+
+def _packs_payloads(rows: m.ObservationRows, counts: list[int]) -> list[bytes] | None:
+    """Payloads of the packs holding ``counts[0]`` of ``rows``, then ``counts[1]``... (each
+    1-3, summing to the rows)."""
     try:
-        ids = b"".join([_ID_BYTES.get(o.uas_id) or _id_bytes(o.uas_id) for o in observations])
+        ids = b"".join([_ID_BYTES.get(uas) or _id_bytes(uas) for uas in rows.uas_id])
     except (WireError, UnicodeEncodeError):
         return None
-    values = m.ObservationRows.of(observations).values
     stride = observation_kernels.PACK_STRIDE
-    buf = np.zeros(len(packs) * stride, dtype=np.uint8)
+    buf = np.zeros(len(counts) * stride, dtype=np.uint8)
     if not observation_kernels.encode_observation_packs(
-        values, np.frombuffer(ids, np.uint8), np.array(counts, dtype=np.int64), buf
+        rows.values, np.frombuffer(ids, np.uint8), np.array(counts, dtype=np.int64), buf
     ):
         return None
     raw, size = buf.tobytes(), _PACK.unpacker.size

@@ -37,9 +37,10 @@ from ridsafe.common.codec.registry import (
     wire_struct,
     wire_values,
 )
-from ridsafe.common.codec.ridsafe_messages import observation_pack_payloads
+from ridsafe.common.codec.ridsafe_messages import observation_rows_payloads
 from ridsafe.common.codec.units import FromMav
 from ridsafe.common.dialect import ridsafe_v20 as mav
+from ridsafe.common.errors import WireError
 
 STX_V1 = 0xFE
 STX_V2 = 0xFD
@@ -79,15 +80,22 @@ _PACK = mav.MAVLink_ridsafe_observation_pack_message
 
 
 def encode_payloads(messages: Sequence[m.Message]) -> list[Payload]:
-    """``encode_payload`` of each message, in order (raises WireError as it does). A list of
-    observation packs (a companion's batch of reports) is encoded in one compiled pass
-    (``ridsafe_messages.observation_pack_payloads``), to the same bytes."""
-    if messages and all(type(message) is m.ObservationPack for message in messages):
-        datas = observation_pack_payloads(cast("Sequence[m.ObservationPack]", messages))
-        if datas is not None:
-            crc_extra = _CRC_EXTRA_BYTE[_PACK.crc_extra]
-            return [Payload(_PACK.id, crc_extra, data) for data in datas]
-    return [encode_payload(message) for message in messages]
+    """``encode_payload`` of each message, in order (raises WireError as it does); a batch of
+    reports (``ObservationRows``, a companion's second of them) as its
+    RIDSAFE_OBSERVATION_PACKs, three reports to a pack, encoded in one compiled pass
+    (``ridsafe_messages.observation_rows_payloads``) to the bytes each pack of
+    ``ridsafe_messages.pack_rows`` would have."""
+    payloads: list[Payload] = []
+    for message in messages:
+        if type(message) is not m.ObservationRows:
+            payloads.append(encode_payload(message))
+            continue
+        datas = observation_rows_payloads(message)
+        if datas is None:
+            raise WireError("a report of the batch does not fit RIDSAFE_OBSERVATION_PACK")
+        crc_extra = _CRC_EXTRA_BYTE[_PACK.crc_extra]
+        payloads += [Payload(_PACK.id, crc_extra, data) for data in datas]
+    return payloads
 
 
 def _encoded(message: m.Message) -> Payload:
