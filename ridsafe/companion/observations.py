@@ -59,10 +59,9 @@ class ObservationCounters:
 
 
 #: One report as a batch keeps it: an ``Observation``'s values in ``m.OBSERVATION_COLUMNS``
-#: order, None where unknown (its claimed id goes beside it).
+#: order, NaN where unknown, as in ``m.ObservationRows`` (its claimed id goes beside it).
 ReportRow = tuple[
-    float, float, float, float, float, float, float, float, float,
-    float | None, float | None, float | None,
+    float, float, float, float, float, float, float, float, float, float, float, float
 ]  # fmt: skip
 
 
@@ -79,9 +78,12 @@ def observation_row(
     rx_lat, rx_lon, rx_alt = rx_geodetic
     claimed_lat, claimed_lon, claimed_alt = position
     timestamp = UNKNOWN_RID_TIMESTAMP_S if loc.timestamp_s is None else loc.timestamp_s
+    course, speed_h, speed_v = loc.course_deg, loc.speed_horizontal_m_s, loc.speed_vertical_m_s
     return (
         t_s, rx_lat, rx_lon, rx_alt, claimed_lat, claimed_lon, claimed_alt, timestamp, rssi_dbm,
-        loc.course_deg, loc.speed_horizontal_m_s, loc.speed_vertical_m_s,
+        math.nan if course is None else course,
+        math.nan if speed_h is None else speed_h,
+        math.nan if speed_v is None else speed_v,
     )  # fmt: skip
 
 

@@ -176,6 +176,10 @@ def test_observations_without_what_they_need_are_refused_with_a_reason() -> None
     no_time = replace(_location(A), timestamp_s=None)
     obs = _report(claim_of(no_time), -60.0, fix.at(0.0, 1.0), 0.0)
     assert obs.rid_timestamp_s == UNKNOWN_RID_TIMESTAMP_S
+    unknown = replace(_location(A), course_deg=None, speed_horizontal_m_s=None)
+    obs = _report(claim_of(unknown), -60.0, fix.at(0.0, 1.0), 0.0)
+    assert obs.claimed_course_deg is None and obs.claimed_speed_horizontal_m_s is None
+    assert obs.claimed_speed_vertical_m_s == 1.0
 
 
 def test_claimed_ids_are_printable_ascii() -> None:
