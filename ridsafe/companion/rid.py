@@ -85,12 +85,12 @@ class OwnRidBroadcaster:
         self._system = Periodic(config.rid_static_period_s)
         self._location = Periodic(config.rid_location_period_s)
         self._system_update = Periodic(config.rid_system_update_period_s)
+        self._next_due_s = -math.inf  # the slots move in ``due`` alone
 
     def next_due_s(self) -> float:
         """When the next message is due (-inf before the first call): callers may skip
         building the aircraft's state until then."""
-        slots = (self._static, self._system, self._location, self._system_update)
-        return min(-math.inf if p.next_s is None else p.next_s for p in slots) - _EPS_S
+        return self._next_due_s
 
     def broadcast(
         self, now_s: float, own: OwnTelemetry, emergency: bool, max_extrapolation_s: float
@@ -126,6 +126,8 @@ class OwnRidBroadcaster:
             self.counters.operator_id += 1
         out.extend(self._location_message(now_s, own))
         out.extend(self._system_update_message(now_s, operator, unix_s))
+        slots = (self._static, self._system, self._location, self._system_update)
+        self._next_due_s = min(-math.inf if p.next_s is None else p.next_s for p in slots) - _EPS_S
         return out
 
     def _system_message(

@@ -53,6 +53,23 @@ def test_periodic_is_phase_locked_and_skips_missed_slots() -> None:
         Periodic(0.0)
 
 
+def test_nothing_is_due_before_next_due_s_and_something_is_at_it() -> None:
+    """The broadcaster's promise to callers that skip it until ``next_due_s``, at every tick
+    of 10 s, whatever is unavailable for a while (no time, then no position)."""
+    broadcaster = OwnRidBroadcaster("RSAF800000001", "OP-1", CompanionConfig())
+    assert broadcaster.next_due_s() == -math.inf
+    for k in range(500):
+        t = k * 0.02
+        own = None if 2.0 <= t < 3.0 else _own(t)
+        unix = None if t < 1.0 else UNIX0 + t
+        promised = broadcaster.next_due_s()
+        sent = broadcaster.due(t, own, OPERATOR, unix)
+        if t < promised:
+            assert sent == [], (t, promised)
+        elif unix is not None and own is not None:
+            assert sent, (t, promised)
+
+
 def test_rates_over_ten_seconds_are_what_ardupilot_expects() -> None:
     counts = _count(OwnRidBroadcaster("RSAF800000001", "OP-1", CompanionConfig()), 10.0)
     assert 9 <= counts["OdidLocation"] <= 11
