@@ -241,11 +241,11 @@ def observation_rows_payloads(rows: m.ObservationRows) -> list[bytes] | None:
     """A companion's batch of reports (some 60 to 130 a second) as the payloads of the
     RIDSAFE_OBSERVATION_PACKs that carry them three to a pack, in order, encoded together:
     each the bytes ``_observation_pack_to`` gives its ``ObservationPack`` (``pack_rows``).
-    None when a report does not fit its fields (or there is none): the caller then sends the
-    packs one by one, which says which and why."""
+    None when a report does not fit its fields: the caller then sends the packs one by one,
+    which says which and why. No report, no pack."""
     n, per_pack = len(rows), OBSERVATIONS_PER_PACK
     counts = [per_pack] * (n // per_pack) + ([n % per_pack] if n % per_pack else [])
-    return _packs_payloads(rows, counts) if counts else None
+    return _packs_payloads(rows, counts) if counts else []
 
 
 def pack_rows(rows: m.ObservationRows) -> list[m.ObservationPack]:
