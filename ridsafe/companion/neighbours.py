@@ -13,9 +13,8 @@ import math
 from collections.abc import Callable, Collection, Hashable
 from dataclasses import dataclass
 
-from ridsafe.common import messages as m
 from ridsafe.common.frozen import quick_init
-from ridsafe.common.heard import LocationClaim, claim_of
+from ridsafe.common.heard import LocationClaim
 from ridsafe.companion.planner_api import Neighbour, Vec3
 
 __all__ = ["NeighbourTable"]
@@ -26,8 +25,7 @@ ToLocal = Callable[[float, float, float], Vec3]
 @quick_init
 @dataclass(frozen=True, slots=True)
 class _Claim:
-    position: Vec3  # lat_deg, lon_deg, alt_m
-    v_ned_m_s: Vec3
+    claim: LocationClaim  # with a position
     t_s: float  # when heard, on the clock passed to ``update``
 
 
@@ -49,12 +47,9 @@ class NeighbourTable:
     def __len__(self) -> int:
         return len(self._claims)
 
-    def update(self, t_s: float, location: m.OdidLocation) -> bool:
-        """Record a heard LOCATION (received at ``t_s``); False if it is ours or unusable."""
-        return self.update_claim(t_s, claim_of(location))
-
-    def update_claim(self, t_s: float, claim: LocationClaim) -> bool:
-        """``update`` with what the LOCATION claims already read (``DecodedRidFrame.claims``)."""
+    def update(self, t_s: float, claim: LocationClaim) -> bool:
+        """Record what a heard LOCATION claims (``DecodedRidFrame.claims``), received at
+        ``t_s``; False if it is ours or unusable."""
         uas_id = claim.uas_id
         if uas_id == self.own_id:
             return False
@@ -65,7 +60,7 @@ class NeighbourTable:
         kept = self._claims.get(uas_id)
         if kept is not None and kept.t_s > t_s:
             return False  # older than what is kept
-        self._claims[uas_id] = _Claim(position, claim.v_ned_m_s, t_s)
+        self._claims[uas_id] = _Claim(claim, t_s)
         self._changes += 1
         self._oldest_s = min(self._oldest_s, t_s)
         return True
@@ -119,10 +114,12 @@ class NeighbourTable:
             ):
                 out.append(kept[2])
                 continue
+            position = c.claim.position
+            assert position is not None  # ``update`` keeps only claims with one
             neighbour = Neighbour(
                 uas_id=uas,
-                p_ned_m=to_local(*c.position),
-                v_ned_m_s=c.v_ned_m_s,
+                p_ned_m=to_local(*position),
+                v_ned_m_s=c.claim.v_ned_m_s,
                 t_s=c.t_s,
                 flagged=is_flagged,
             )

@@ -228,7 +228,7 @@ class ObservationReporter:
                 rx_t_s, rx_geodetic = heard.rx_t_s, fix.at(heard.rx_t_s, self.max_extrapolation_s)
             rssi_dbm = heard.report.rssi_dbm
             for claim in self._claims(heard):
-                self.neighbours.update_claim(rx_sim_s, claim)
+                self.neighbours.update(rx_sim_s, claim)
                 self.batcher.add(claim, rssi_dbm, rx_geodetic, rx_sim_s)
         self.send(now_s, self.batcher.take_due(now_s), own, gcs_seen, send, sink)
 

@@ -15,7 +15,7 @@ import pytest
 
 from ridsafe.common import frames, rid
 from ridsafe.common import messages as m
-from ridsafe.common.heard import velocity_ned
+from ridsafe.common.heard import claim_of, velocity_ned
 from ridsafe.common.messages import AlertState, RegionFlags
 from ridsafe.companion.neighbours import NeighbourTable
 from ridsafe.companion.planner_api import Vec3
@@ -143,9 +143,11 @@ def test_rid_location_round_trip_gives_back_the_velocity() -> None:
 
 def test_neighbours_are_in_local_ned_flagged_by_alert_and_exclude_ourselves() -> None:
     table = NeighbourTable("RSAF800000001", max_age_s=3.0)
-    assert not table.update(1.0, _claim("RSAF800000001", (0, 0, -50), (0, 0, 0)))
-    assert table.update(1.0, _claim("RSAF800000002", (200.0, 10.0, -60.0), (1.0, 2.0, 0.0)))
-    assert table.update(1.2, _claim(SPOOFER, (-80.0, 40.0, -55.0), (0.0, 7.0, 0.0)))
+    assert not table.update(1.0, claim_of(_claim("RSAF800000001", (0, 0, -50), (0, 0, 0))))
+    assert table.update(
+        1.0, claim_of(_claim("RSAF800000002", (200.0, 10.0, -60.0), (1.0, 2.0, 0.0)))
+    )
+    assert table.update(1.2, claim_of(_claim(SPOOFER, (-80.0, 40.0, -55.0), (0.0, 7.0, 0.0))))
     got = {n.uas_id: n for n in table.neighbours(2.0, to_local, flagged={SPOOFER})}
     assert set(got) == {"RSAF800000002", SPOOFER}
     np.testing.assert_allclose(got["RSAF800000002"].p_ned_m, (200.0, 10.0, -60.0), atol=1e-6)
@@ -156,9 +158,11 @@ def test_neighbours_are_in_local_ned_flagged_by_alert_and_exclude_ourselves() ->
 
 def test_neighbours_expire_after_max_age_and_keep_only_the_latest_claim() -> None:
     table = NeighbourTable("RSAF800000001", max_age_s=3.0)
-    table.update(1.0, _claim("RSAF800000002", (10.0, 0.0, -50.0), (0, 0, 0)))
-    table.update(2.0, _claim("RSAF800000002", (20.0, 0.0, -50.0), (0, 0, 0)))
-    table.update(1.5, _claim("RSAF800000002", (15.0, 0.0, -50.0), (0, 0, 0)))  # late, older
+    table.update(1.0, claim_of(_claim("RSAF800000002", (10.0, 0.0, -50.0), (0, 0, 0))))
+    table.update(2.0, claim_of(_claim("RSAF800000002", (20.0, 0.0, -50.0), (0, 0, 0))))
+    table.update(
+        1.5, claim_of(_claim("RSAF800000002", (15.0, 0.0, -50.0), (0, 0, 0)))
+    )  # late, older
     (n,) = table.neighbours(4.9, to_local)
     assert n.p_ned_m[0] == pytest.approx(20.0, abs=1e-6)
     assert table.neighbours(5.01, to_local) == ()
@@ -172,8 +176,8 @@ def test_a_claim_is_converted_once_per_frame_and_again_when_anything_changes() -
         return to_local(lat, lon, alt)
 
     table = NeighbourTable("RSAF800000001", max_age_s=3.0)
-    table.update(1.0, _claim("RSAF800000002", (200.0, 10.0, -60.0), (1.0, 2.0, 0.0)))
-    table.update(1.0, _claim(SPOOFER, (-80.0, 40.0, -55.0), (0.0, 7.0, 0.0)))
+    table.update(1.0, claim_of(_claim("RSAF800000002", (200.0, 10.0, -60.0), (1.0, 2.0, 0.0))))
+    table.update(1.0, claim_of(_claim(SPOOFER, (-80.0, 40.0, -55.0), (0.0, 7.0, 0.0))))
     frame = (HOME, (0.0, 0.0, 0.0))
     first = table.neighbours(1.5, counted, frame=frame)
     assert first == table.neighbours(1.5, to_local)  # the same as without a frame
@@ -181,7 +185,9 @@ def test_a_claim_is_converted_once_per_frame_and_again_when_anything_changes() -
     again = table.neighbours(2.0, counted, frame=(HOME, (0.0, 0.0, 0.0)))  # an equal frame
     assert again == first and all(a is b for a, b in zip(again, first, strict=True))
     assert len(calls) == 2
-    table.update(2.1, _claim(SPOOFER, (-70.0, 40.0, -55.0), (0.0, 7.0, 0.0)))  # a new claim
+    table.update(
+        2.1, claim_of(_claim(SPOOFER, (-70.0, 40.0, -55.0), (0.0, 7.0, 0.0)))
+    )  # a new claim
     newer = table.neighbours(2.2, counted, frame=frame)
     assert len(calls) == 3 and newer[0] is first[0]
     assert newer[1].p_ned_m[0] == pytest.approx(-70.0, abs=1e-6)
@@ -195,15 +201,17 @@ def test_a_claim_is_converted_once_per_frame_and_again_when_anything_changes() -
 
 def test_the_answer_is_kept_while_no_claim_comes_or_goes_and_the_flags_stay() -> None:
     table = NeighbourTable("RSAF800000001", max_age_s=3.0)
-    table.update(1.0, _claim("RSAF800000002", (200.0, 10.0, -60.0), (1.0, 2.0, 0.0)))
-    table.update(2.0, _claim(SPOOFER, (-80.0, 40.0, -55.0), (0.0, 7.0, 0.0)))
+    table.update(1.0, claim_of(_claim("RSAF800000002", (200.0, 10.0, -60.0), (1.0, 2.0, 0.0))))
+    table.update(2.0, claim_of(_claim(SPOOFER, (-80.0, 40.0, -55.0), (0.0, 7.0, 0.0))))
     frame = (HOME, (0.0, 0.0, 0.0))
     first = table.neighbours(2.5, to_local, flagged=frozenset(), frame=frame)
     assert table.neighbours(3.0, to_local, flagged=frozenset(), frame=frame) is first
     flagged = table.neighbours(3.0, to_local, flagged={SPOOFER}, frame=frame)
     assert flagged != first and flagged[1].flagged
     assert table.neighbours(3.5, to_local, flagged={SPOOFER}, frame=frame) is flagged
-    table.update(3.6, _claim(SPOOFER, (-70.0, 40.0, -55.0), (0.0, 7.0, 0.0)))  # a new claim
+    table.update(
+        3.6, claim_of(_claim(SPOOFER, (-70.0, 40.0, -55.0), (0.0, 7.0, 0.0)))
+    )  # a new claim
     newer = table.neighbours(3.7, to_local, flagged={SPOOFER}, frame=frame)
     assert newer[1].p_ned_m[0] == pytest.approx(-70.0, abs=1e-6)
     # 4.01 s: the claim heard at 1.0 s is gone, the answer given at 3.7 s with it.
@@ -217,5 +225,5 @@ def test_the_answer_is_kept_while_no_claim_comes_or_goes_and_the_flags_stay() ->
 def test_a_claim_without_position_is_counted_unusable() -> None:
     table = NeighbourTable("RSAF800000001")
     loc = replace(_claim("RSAF800000002", (0, 0, 0), (0, 0, 0)), lat_deg=None, lon_deg=None)
-    assert not table.update(1.0, loc)
+    assert not table.update(1.0, claim_of(loc))
     assert table.unusable == 1 and len(table) == 0
