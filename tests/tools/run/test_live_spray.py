@@ -9,6 +9,19 @@ of its own. The sprayed run must complete with every goal reached, the alert no 
 replays refused, the companions served as many regions as undisturbed, and its rejections
 counted in ``/app/counters``.
 
+The alert is timed as ``detection_delay_s``, from when four aircraft had heard the spoofer:
+an app that starts late under load shifts the whole flight in sim time (up to 16 s for the
+third undisturbed run), and that is start-up, not detection. The spoofer lies by 212 m
+(``SPOOFER_OFFSET_ENU_M``) instead of the default scenario's 71 m. At 71 m on the 1 dB
+channel its MLAT statistic hovers just under the threshold for 10-15 s, so when it crosses
+depends on the noise a live run happens to draw: one seed's undisturbed live alerts came
+8-23 s after the spoofer was heard, and a sprayed run failed the bar without the spray being
+the cause (its GCS accepted 1588 of 1600 observations). A 212 m lie is caught at the first
+fit (lockstep: 4.75 s on seeds 0-5; live: 4.2-6.2 s after it was heard, 8.9 s for a run that
+started late), so a sprayed alert 5 s later than every undisturbed one is the spray's doing.
+How the detectors fare on lies near their threshold is issue 15's question, measured by
+``ridsafe sweep``, not here.
+
 The runs go at ``SPEED`` times real time for ``DURATION_S`` (the last aircraft arrives at
 about 70 s, 80 s when the machine is loaded), the three undisturbed ones side by side on
 ports of their own: together they load the machine about as much as the sprayed run and its
@@ -57,6 +70,7 @@ RELAY_PORT = 30460  # where the sprayed run's companions send to the GCS
 CLEAN_PORT_OFFSETS = (400, 800, 1200)  # the undisturbed runs', side by side (up to 32000)
 SIM_PORTS = [COMPANION_BASE + 10 * k for k in range(4)] + [GCS_OUT_BASE + 10 * k for k in range(4)]
 SPEED, SEED, DURATION_S = 6.0, 0, 100.0
+SPOOFER_OFFSET_ENU_M = "[150.0, 150.0, 0.0]"  # its lie: the module docstring says why
 PER_APP = 50_000  # datagrams at each app's ports
 BURST = 25  # datagrams per app between two 1 ms pauses
 ALERT_SLACK_S = 5.0
@@ -87,6 +101,7 @@ def _run(out: Path, port_offset: int = 0, relay: bool = False) -> subprocess.Pop
     if relay:
         ports += ["--set", f"run.gcs_connect=udpout:127.0.0.1:{RELAY_PORT}"]
     flags = ["--seed", str(SEED), "--speed", str(SPEED), "--duration", str(DURATION_S)]
+    flags += ["--set", f"scenario.spoofer.offset_enu_m={SPOOFER_OFFSET_ENU_M}"]
     return start_live_run(out, *flags, *ports)
 
 
@@ -289,11 +304,12 @@ def test_a_sprayed_live_run_reaches_every_goal_and_alerts_as_undisturbed_runs_do
     for out, offset in zip(cleans, CLEAN_PORT_OFFSETS, strict=True):
         procs.append(_run(out, offset))
         _wait_until_started(out)  # start-ups one after the other: they are what costs CPU
-    alerts, regions_clean = [], []
+    delays, regions_clean = [], []
     for proc, out in zip(procs, cleans, strict=True):
         metrics = _finish(proc, out)
         assert metrics["goal_reached_fraction"] == 1.0, metrics
-        alerts.append(metrics["alert_time_s"])
+        assert metrics["detection_delay_s"] is not None, metrics
+        delays.append(metrics["detection_delay_s"])
         counters, _ = _counters(out)
         regions_clean.append(
             {
@@ -318,8 +334,8 @@ def test_a_sprayed_live_run_reaches_every_goal_and_alerts_as_undisturbed_runs_do
         relay.thread.join(timeout=5)
     assert all(n >= PER_APP for n in sprayer.sent.values()), sprayer.sent
     assert metrics["goal_reached_fraction"] == 1.0, metrics
-    assert metrics["alert_time_s"] is not None
-    assert metrics["alert_time_s"] <= max(alerts) + ALERT_SLACK_S, (metrics, alerts)
+    assert metrics["detection_delay_s"] is not None
+    assert metrics["detection_delay_s"] <= max(delays) + ALERT_SLACK_S, (metrics, delays)
     counters, records = _counters(out)
     companions = {app: c for app, c in counters.items() if app.startswith("companion/")}
     assert len(companions) == 4
