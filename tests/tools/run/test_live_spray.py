@@ -5,17 +5,17 @@ GCS's, the companions' own sockets) and the one-datagram cases of the issue (a N
 DO_SET_MODE, SYSTEM_TIME 2^64-1 and a "disarmed" HEARTBEAT from the autopilot's ids), and a
 relay on the companions' way to the GCS forwards their traffic and replays it from a socket
 of its own. The sprayed run must complete with every goal reached, the alert no later than
-5 s (sim time) after the latest undisturbed run's, no link lost, no handler error, the
-replays refused, the companions served as many regions as undisturbed, and its rejections
-counted in ``/app/counters``.
+5 s (sim time, from when the spoofer was heard) after the latest undisturbed run's, no link
+lost, no handler error, the replays refused, the companions served as many regions as
+undisturbed, and its rejections counted in ``/app/counters``.
 
 The alert is timed as ``detection_delay_s``, from when four aircraft had heard the spoofer:
 an app that starts late under load shifts the whole flight in sim time (up to 16 s for the
 third undisturbed run), and that is start-up, not detection. The spoofer lies by 212 m
 (``SPOOFER_OFFSET_ENU_M``) instead of the default scenario's 71 m. At 71 m on the 1 dB
 channel its MLAT statistic hovers just under the threshold for 10-15 s, so when it crosses
-depends on the noise a live run happens to draw: one seed's undisturbed live alerts came
-8-23 s after the spoofer was heard, and a sprayed run failed the bar without the spray being
+depends on the noise a live run happens to draw: seed 0's live alerts came 9-23 s
+after the spoofer was heard, and a sprayed run failed the bar without the spray being
 the cause (its GCS accepted 1588 of 1600 observations). A 212 m lie is caught at the first
 fit (lockstep: 4.75 s on seeds 0-5; live: 4.2-6.2 s after it was heard, 8.9 s for a run that
 started late), so a sprayed alert 5 s later than every undisturbed one is the spray's doing.
