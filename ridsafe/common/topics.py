@@ -153,7 +153,10 @@ TOPICS: dict[str, tuple[str, dict[str, str]]] = {
     GCS_CHANNEL: (
         "GCS, when it takes a channel model (pipeline.calibration)",
         {
-            "channel": "'configured' (pipeline.rssi_sigma_db, free space) or 'fitted'",
+            "channel": (
+                "'configured' (pipeline.rssi_sigma_db, free space), 'provisional' (a fit "
+                "before the full warm-up: calibration.provisional_*) or 'fitted'"
+            ),
             "n_samples": "labelled benign-to-benign receptions behind the decision",
             "residual_std_db": "the receptions' residual std under the configured channel",
             "p_value": "chi-square p-value of the configured channel (null: not tested)",

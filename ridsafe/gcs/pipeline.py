@@ -216,6 +216,16 @@ class EstimationPipeline:
             warm_up()
             cls._warm = True
 
+    def take_over(self, previous: EstimationPipeline) -> None:
+        """Continue ``previous``, which this (new, not yet stepped) pipeline replaces on
+        another channel (``calibration/pipeline.py``): its alerts stand (not raised again,
+        their tracks started afresh from the claims this one is given), its track numbers
+        are not reused, and its compute times are kept."""
+        self._alerts = dict(previous._alerts)
+        self._next_track_id = previous._next_track_id
+        self._forced_done = previous._forced_done
+        self.compute_s.extend(previous.compute_s)
+
     # --- the GcsPipeline protocol ---------------------------------------------------------
 
     def step(self, now_s: float, claims: Sequence[ObservedClaim]) -> CycleOutput:

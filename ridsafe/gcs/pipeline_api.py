@@ -187,7 +187,7 @@ class ChannelDecision:
     them. ``residual_std_db`` and ``p_value``: the test of the configured channel (None when
     none was made); ``exponent`` and ``sigma_db``: the fit (None on the configured one)."""
 
-    channel: str  # 'configured' or 'fitted'
+    channel: str  # 'configured', 'provisional' (calibration.provisional_*) or 'fitted'
     n_samples: int
     residual_std_db: float | None
     p_value: float | None

@@ -47,6 +47,14 @@ class CalibrationConfig:
     #: fleet (16 aircraft: 33 parameters, 297 receptions; 8 aircraft: 153).
     samples_per_parameter: float = 9.0
     min_samples: int = 100
+    #: A provisional fit before that, from this many labelled receptions per parameter (at
+    #: least ``provisional_min_samples``): the estimation pipeline starts on it, so that
+    #: strangers' regions and the first alerts need not wait for the full warm-up (8
+    #: aircraft: 85 receptions instead of 153). At the full warm-up, unless it has alerted,
+    #: it is replaced by a pipeline on the full fit, the held claims replayed, exactly as
+    #: were there no provisional stage (``pipeline.py``). 0: no provisional stage.
+    provisional_samples_per_parameter: float = 0.0
+    provisional_min_samples: int = 50
     #: ... and no earlier than this (sim seconds), so several geometries are seen.
     min_time_s: float = 2.0
     #: A claim is a cooperative aircraft's when it lies within this of one receiver's own
@@ -115,7 +123,7 @@ class CalibrationConfig:
 
     def __post_init__(self) -> None:
         names = ("min_samples", "min_matches", "max_samples", "null_min_claims")
-        for name in (*names, "configured_min_samples"):
+        for name in (*names, "configured_min_samples", "provisional_min_samples"):
             if getattr(self, name) < 1:
                 raise FieldValueError(name, f"expected >= 1, got {getattr(self, name)}")
         for name in ("match_m", "match_age_s", "vouch_m", "exponent_prior", "exponent_prior_std"):
@@ -141,6 +149,9 @@ class CalibrationConfig:
         ):
             check_positive(name, getattr(self, name))
         check_non_negative("samples_per_parameter", self.samples_per_parameter)
+        check_non_negative(
+            "provisional_samples_per_parameter", self.provisional_samples_per_parameter
+        )
         check_non_negative("elevation_gain_min_z", self.elevation_gain_min_z)
         check_non_negative("min_time_s", self.min_time_s)
         check_non_negative("hold_s", self.hold_s)

@@ -207,6 +207,8 @@ class CalibratingPipeline:
         self._decision: ChannelDecision | None = None  # for this cycle's output
         self._track_noise: _TrackNoise | None = None  # with a detectors' fit of its own
         self._floor = SensitivityFloor()  # the weakest RSSI reported (censoring.py)
+        #: On a provisional fit (``provisional_samples_per_parameter``) until the full one.
+        self.provisional = False
 
     @property
     def on_configured_channel(self) -> bool:
@@ -217,23 +219,10 @@ class CalibratingPipeline:
         self._hold_tracks_mapping()
         self.labeller.observe_all(claims)
         self._floor.observe(claims)
-        if self.inner is None:
-            self._hold(claims)
-            if not self._start(now_s):
-                return CycleOutput()
-            claims, self._held = list(self._held), deque()
-        elif self.on_configured_channel and self._may_switch():
-            self._hold(claims)  # replayed should a later check reject the configured channel
-            check = self._check_configured(now_s) if self._check_due(now_s) else None
-            if check is not None and not check.fits:
-                self._reject_configured(now_s, check)
-                self._start_fitted(now_s)
-                claims, self._held = list(self._held), deque()
-        elif self.on_configured_channel and self.labeller.learning:
-            self._held.clear()  # an alert is raised: the configured channel stays
-            self.labeller.learning = False
-        elif self._refit_due(now_s):
-            self.estimate, self._checked_s = self._fit(None), now_s
+        chosen = self._choose_channel(now_s, claims)
+        if chosen is None:
+            return CycleOutput()  # warming up
+        claims, replaced = chosen
         assert self.inner is not None
         h = self.config.calibration.min_receiver_height_m
         claims = [airborne_receptions(c, h) for c in claims]
@@ -249,10 +238,48 @@ class CalibratingPipeline:
             if self._track_noise is not None:
                 self._track_noise.observe(claims)
         out = self.inner.step(now_s, claims)
+        if replaced is not None:  # the tracks the new pipeline did not start again end
+            ended = tuple(u for u in replaced.tracks if u not in self.inner.tracks)
+            out = dataclasses.replace(out, deleted_tracks=out.deleted_tracks + ended)
         self._update_inflation(now_s)
         if self._decision is not None:
             out, self._decision = dataclasses.replace(out, channel=self._decision), None
         return out
+
+    def _choose_channel(
+        self, now_s: float, claims: Sequence[ObservedClaim]
+    ) -> tuple[Sequence[ObservedClaim], EstimationPipeline | None] | None:
+        """Start, keep or change the channel the inner pipeline runs on: the claims it is to
+        step on (held ones replayed after a change) and the pipeline a new one replaced;
+        None while warming up."""
+        replaced: EstimationPipeline | None = None  # by a pipeline on the full fit
+        if self.inner is None:
+            self._hold(claims)
+            if not self._start(now_s):
+                return None
+            claims = list(self._held)
+            if not self.provisional:
+                self._held = deque()
+        elif self.provisional:
+            self._hold(claims)  # replayed into the pipeline on the full fit
+            if self._ready(now_s):
+                replaced, self.provisional = self.inner, False
+                self._start_fitted(now_s)
+                self.inner.take_over(replaced)
+                claims, self._held = list(self._held), deque()
+        elif self.on_configured_channel and self._may_switch():
+            self._hold(claims)  # replayed should a later check reject the configured channel
+            check = self._check_configured(now_s) if self._check_due(now_s) else None
+            if check is not None and not check.fits:
+                self._reject_configured(now_s, check)
+                self._start_fitted(now_s)
+                claims, self._held = list(self._held), deque()
+        elif self.on_configured_channel and self.labeller.learning:
+            self._held.clear()  # an alert is raised: the configured channel stays
+            self.labeller.learning = False
+        elif self._refit_due(now_s):
+            self.estimate, self._checked_s = self._fit(None), now_s
+        return claims, replaced
 
     def _start(self, now_s: float) -> bool:
         """Start the inner pipeline once the labelled receptions allow: on the configured
@@ -276,13 +303,19 @@ class CalibratingPipeline:
                 return False  # not sure yet: more receptions
             self._reject_configured(now_s, check)
         if not self._ready(now_s):
-            return False
+            if not self._ready(now_s, provisional=True):
+                return False
+            self.provisional = True
         self._start_fitted(now_s)
         return True
 
     def _start_fitted(self, now_s: float) -> None:
+        """A new inner pipeline on a fit made now; the provisional one's review (its
+        empirical null, measured on that fit) and tracks' mapping are not carried over."""
         self.estimate, self._checked_s = self._fit(self._rejection), now_s
         self._pivot_dbm = float(np.mean(list(self.estimate.tx_level_db.values())))
+        self.review = CalibratedReview(self.config.calibration, self.labeller)
+        self.tracks_estimate = None
         self.inner = EstimationPipeline(
             self._calibrated_config(self.estimate), self.review, self._strangers
         )
@@ -372,12 +405,20 @@ class CalibratingPipeline:
         while self._held and self._held[0].t_s < oldest_s:
             self._held.popleft()
 
-    def _ready(self, now_s: float) -> bool:
+    def _ready(self, now_s: float, provisional: bool = False) -> bool:
+        """Enough labelled receptions for the full fit, or for the provisional one (never
+        with ``provisional_samples_per_parameter`` 0)."""
         cal = self.config.calibration
+        per_parameter, least = cal.samples_per_parameter, cal.min_samples
+        if provisional:
+            per_parameter = cal.provisional_samples_per_parameter
+            least = cal.provisional_min_samples
+            if per_parameter <= 0.0:
+                return False
         n = len(self.labeller.samples)
-        if now_s < cal.min_time_s or n < cal.min_samples:
+        if now_s < cal.min_time_s or n < least:
             return False
-        return n >= cal.samples_per_parameter * self.labeller.samples.n_parameters()
+        return n >= per_parameter * self.labeller.samples.n_parameters()
 
     def _fit(self, rejection: ConfiguredChannelCheck | None) -> ChannelEstimate:
         """Fit the channel to the labelled receptions; the decision goes to the output with
@@ -406,7 +447,12 @@ class CalibratingPipeline:
         std_db = None if rejection is None else rejection.residual_std_db
         p_value = None if rejection is None else rejection.p_value
         self._decision = ChannelDecision(
-            "fitted", estimate.n_samples, std_db, p_value, estimate.exponent, estimate.sigma_db
+            "provisional" if self.provisional else "fitted",
+            estimate.n_samples,
+            std_db,
+            p_value,
+            estimate.exponent,
+            estimate.sigma_db,
         )
         return estimate
 
