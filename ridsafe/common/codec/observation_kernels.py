@@ -174,15 +174,19 @@ def _course_and_speeds(row: NDArray[np.float64]) -> tuple[bool, int, int, int]:
         _UNKNOWN_SPEED_H_CMS,
         _UNKNOWN_SPEED_V_CMS,
     )
-    if np.isfinite(course):
-        if not abs(course) < 2.0**62:
-            return False, 0, 0, 0
-        course_cdeg = int(course) % 36000
-    if np.isfinite(speed_h):
+    # Unknown where the value (not its hundredths) is not finite, as in ``_observation_to``:
+    # a finite speed beyond its field saturates, a course of any size wraps (``fmod`` of an
+    # integer-valued float is exact, as Python's ``%`` of the int ``round`` gives).
+    if np.isfinite(row[9]):
+        if not np.isfinite(course):
+            return False, 0, 0, 0  # hundredths past float's range: ``round`` raises
+        wrapped = np.fmod(course, 36000.0)
+        course_cdeg = int(wrapped + 36000.0 if wrapped < 0.0 else wrapped)
+    if np.isfinite(row[10]):
         if speed_h < 0.0:  # a uint16
             return False, 0, 0, 0
         speed_h_cms = int(min(speed_h, _MAX_SPEED_H_CMS))
-    if np.isfinite(speed_v):
+    if np.isfinite(row[11]):
         speed_v_cms = int(max(-32768.0, min(32767.0, speed_v)))
     return True, course_cdeg, speed_h_cms, speed_v_cms
 

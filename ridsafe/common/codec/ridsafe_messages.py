@@ -33,6 +33,7 @@ from ridsafe.common.codec.units import (
     cms,
     deg_e7,
     id20,
+    saturating_round,
     text,
     uas_id_bytes,
     us,
@@ -76,6 +77,7 @@ def _observation_to(msg: m.Observation) -> Wire:
     course = _finite_or_none(msg.claimed_course_deg)
     speed_h = _finite_or_none(msg.claimed_speed_horizontal_m_s)
     speed_v = _finite_or_none(msg.claimed_speed_vertical_m_s)
+    speed_h_cms = None if speed_h is None else min(25425, saturating_round(speed_h * 100.0))
     return wire(
         mav.MAVLink_ridsafe_observation_message,
         us(msg.t_s),
@@ -88,7 +90,7 @@ def _observation_to(msg: m.Observation) -> Wire:
         msg.rid_timestamp_s,
         msg.rssi_dbm,
         ODID_UNKNOWN_DIRECTION_CDEG if course is None else round(course * 100.0) % 36000,
-        ODID_UNKNOWN_SPEED_H_CMS if speed_h is None else min(25425, round(speed_h * 100.0)),
+        ODID_UNKNOWN_SPEED_H_CMS if speed_h is None else speed_h_cms,
         ODID_UNKNOWN_SPEED_V_CMS if speed_v is None else cms(speed_v),
         uas_id_bytes(msg.uas_id),
     )

@@ -96,8 +96,16 @@ def ms(t_s: float) -> int:
 
 
 def cms(v_m_s: float) -> int:
-    """m/s -> an int16 cm/s field (saturating)."""
-    return max(-32768, min(32767, round(v_m_s * 100.0)))
+    """m/s -> an int16 cm/s field (saturating, also where the cm/s overflow a float)."""
+    return max(-32768, min(32767, saturating_round(v_m_s * 100.0)))
+
+
+def saturating_round(value: float) -> int:
+    """``round``, with an infinite value (a finite one scaled past float's range) taken as
+    an integer beyond every field; NaN is the caller's to refuse."""
+    if math.isinf(value):
+        return 2**63 if value > 0.0 else -(2**63)
+    return round(value)
 
 
 def text(value: bytes | str) -> str:
