@@ -50,9 +50,9 @@ class CalibrationConfig:
     #: A provisional fit before that, from this many labelled receptions per parameter (at
     #: least ``provisional_min_samples``): the estimation pipeline starts on it, so that
     #: strangers' regions and the first alerts need not wait for the full warm-up (8
-    #: aircraft: 85 receptions instead of 153). At the full warm-up, unless it has alerted,
-    #: it is replaced by a pipeline on the full fit, the held claims replayed, exactly as
-    #: were there no provisional stage (``pipeline.py``). 0: no provisional stage.
+    #: aircraft: 85 receptions instead of 153). At the full warm-up a pipeline on the full
+    #: fit replaces it, the held claims replayed, with the alerts raised meanwhile standing
+    #: (``pipeline.py``). 0: no provisional stage.
     provisional_samples_per_parameter: float = 0.0
     provisional_min_samples: int = 50
     #: ... and no earlier than this (sim seconds), so several geometries are seen.

@@ -41,6 +41,15 @@ floor at the check; the check is repeated every ``refit_s`` until an alert is ra
 the first that rejects the configured channel fits the channel and replays the held claims
 into a pipeline on the fit, from then on as ``enabled: true``.
 
+**A provisional fit** (``calibration.provisional_samples_per_parameter``, 0 by default)
+starts the inner pipeline on a fit from fewer receptions, so that strangers' regions and
+first alerts need not wait for the full warm-up. At the full warm-up a pipeline on the full
+fit replaces it, the held claims replayed (``EstimationPipeline.take_over``: the alerts
+raised meanwhile stand, their tracks start afresh on the full fit's mapping). A provisional
+pipeline that kept running once it had alerted held its tracks to the young fit's mapping
+(exponent 3, 8 aircraft: containment 0.871 -> 0.782); replaced, 0.860
+(docs/results/robustness.md).
+
 **Antennas are not isotropic** (``calibration.elevation_knots_deg``): a dipole on an
 airframe loses several dB toward steep links, a loss the plain fit can only count as noise,
 so its sigma grows and the detectors lose their power (vertical dipoles, 16 aircraft: 6 runs
