@@ -4,6 +4,8 @@ full fit without losing an alert, a region or a track number."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -13,13 +15,19 @@ from ridsafe.common.pathloss import received_power_dbm
 from ridsafe.gcs.calibration.config import CalibrationConfig
 from ridsafe.gcs.calibration.pipeline import CalibratingPipeline
 from ridsafe.gcs.pipeline_api import CycleOutput, ObservedClaim
-from ridsafe.gcs.pipeline_config import PipelineConfig
+from ridsafe.gcs.pipeline_config import PipelineConfig, TrackConfig
 from tests.gcs.claims import free_space_claim, observed_claim
 
 POSITIONS = {i: [150.0 * i - 500.0, 90.0 * (i % 3) - 90.0, 40.0 + 5.0 * i] for i in range(1, 7)}
 LIAR = "LIAR"
 LIAR_CLAIM_ENU_M = np.array([0.0, 0.0, 60.0])
 LIAR_TRUE_ENU_M = np.array([250.0, 300.0, 60.0])
+#: An honest transmitter outside the fleet, heard for 5 s: its track (a stranger's, from its
+#: 5th claim) starts on the provisional fit, and none of its claims is in the 10 s replayed
+#: at the switch, so nothing starts it again.
+STRANGER = "STRANGER"
+STRANGER_ENU_M = np.array([100.0, -200.0, 50.0])
+STRANGER_HEARD_S = 5
 #: 13 parameters (1 exponent, 6 biases, 6 levels), 30 labelled receptions a second: the
 #: provisional fit after 2 s, the full one after 13 s.
 CALIBRATION = CalibrationConfig(
@@ -32,6 +40,17 @@ CALIBRATION = CalibrationConfig(
 )
 
 
+def _heard_by_all(
+    uas_id: str, t_s: float, claim_enu_m: np.ndarray, true_enu_m: np.ndarray
+) -> ObservedClaim:
+    """``uas_id`` claiming ``claim_enu_m``, heard by all six aircraft as a 20 dBm
+    transmitter at ``true_enu_m`` (noise-free free space)."""
+    rx_ids = np.array(sorted(POSITIONS), dtype=np.int64)
+    rx_enu_m = np.array([POSITIONS[i] for i in sorted(POSITIONS)])
+    rssi = received_power_dbm(20.0, np.linalg.norm(rx_enu_m - true_enu_m, axis=1))
+    return observed_claim(uas_id, t_s, claim_enu_m, rx_enu_m, rssi, rx_ids)
+
+
 def _cycle_claims(t_s: float) -> list[ObservedClaim]:
     """Every aircraft heard by the others (noise-free free space), and the liar, 300 m from
     its claim, heard by all six."""
@@ -39,20 +58,23 @@ def _cycle_claims(t_s: float) -> list[ObservedClaim]:
         free_space_claim(f"RID{i}", t_s, p, {j: q for j, q in POSITIONS.items() if j != i})
         for i, p in POSITIONS.items()
     ]
-    rx_ids = np.array(sorted(POSITIONS), dtype=np.int64)
-    rx_enu_m = np.array([POSITIONS[i] for i in sorted(POSITIONS)])
-    d_m = np.linalg.norm(rx_enu_m - LIAR_TRUE_ENU_M, axis=1)
-    rssi = received_power_dbm(20.0, d_m)
-    claims.append(observed_claim(LIAR, t_s, LIAR_CLAIM_ENU_M, rx_enu_m, rssi, rx_ids))
+    claims.append(_heard_by_all(LIAR, t_s, LIAR_CLAIM_ENU_M, LIAR_TRUE_ENU_M))
     return claims
 
 
-def _fly(calibration: CalibrationConfig, seconds: int) -> list[tuple[float, CycleOutput, bool]]:
-    """Each cycle's output and whether the pipeline was then on its provisional fit."""
-    pipeline = CalibratingPipeline(PipelineConfig(calibration=calibration))
+def _fly(
+    calibration: CalibrationConfig, seconds: int, config: PipelineConfig | None = None
+) -> list[tuple[float, CycleOutput, bool]]:
+    """Each cycle's output and whether the pipeline was then on its provisional fit; a
+    stranger telling the truth is heard in the first ``STRANGER_HEARD_S`` seconds."""
+    config = PipelineConfig() if config is None else config
+    pipeline = CalibratingPipeline(dataclasses.replace(config, calibration=calibration))
     cycles = []
     for k in range(seconds):
-        out = pipeline.step(k + 0.25, _cycle_claims(float(k)))
+        claims = _cycle_claims(float(k))
+        if k < STRANGER_HEARD_S:
+            claims.append(_heard_by_all(STRANGER, float(k), STRANGER_ENU_M, STRANGER_ENU_M))
+        out = pipeline.step(k + 0.25, claims)
         cycles.append((k + 0.25, out, pipeline.provisional))
     return cycles
 
@@ -80,9 +102,7 @@ def test_an_alert_raised_on_the_provisional_fit_outlives_the_switch() -> None:
     after = {n for t, n in region_tracks if t >= fitted_s}
     assert before and after and not before & after
     assert not any(LIAR in out.deleted_tracks for _, out, _ in cycles)
-    assert [p for t, _, p in cycles if t >= fitted_s] == [False] * len(
-        [t for t, _, _ in cycles if t >= fitted_s]
-    )
+    assert not any(p for t, _, p in cycles if t >= fitted_s)
 
 
 def test_without_a_provisional_stage_nothing_runs_before_the_full_warm_up() -> None:
@@ -91,7 +111,7 @@ def test_without_a_provisional_stage_nothing_runs_before_the_full_warm_up() -> N
     )
     cycles = _fly(no_stage, 25)
     decisions = [(t, out.channel) for t, out, _ in cycles if out.channel is not None]
-    assert [d.channel for _, d in decisions if d is not None] == ["fitted"]
+    assert [d.channel for _, d in decisions] == ["fitted"]
     fitted_s = decisions[0][0]
     assert not any(out.regions or out.alert_changes for t, out, _ in cycles if t < fitted_s)
     assert not any(p for _, _, p in cycles)
@@ -102,3 +122,16 @@ def test_a_negative_provisional_count_is_an_error() -> None:
         CalibrationConfig(provisional_samples_per_parameter=-1.0)
     with pytest.raises(FieldValueError, match="provisional_min_samples"):
         CalibrationConfig(provisional_min_samples=0)
+
+
+def test_a_track_the_full_fit_does_not_start_again_is_reported_ended() -> None:
+    """The stranger's track, started on the provisional fit, is not started again from the
+    replayed claims: the switch's output deletes it, so its region does not linger."""
+    tracks = TrackConfig(strangers_after_claims=5, silence_timeout_s=30.0)  # not by silence
+    strangers = PipelineConfig(tracks=tracks)
+    cycles = _fly(CALIBRATION, 20, strangers)
+    (fitted_s,) = [t for t, out, _ in cycles if out.channel and out.channel.channel == "fitted"]
+    tracked_s = [t for t, out, _ in cycles for e in out.tracks if e.uas_id == STRANGER]
+    assert tracked_s and max(tracked_s) < fitted_s
+    deleted_s = [t for t, out, _ in cycles if STRANGER in out.deleted_tracks]
+    assert deleted_s == [fitted_s]
