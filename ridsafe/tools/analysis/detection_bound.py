@@ -16,6 +16,14 @@ takes after four aircraft heard the spoofer is a lower bound on any detector's d
 false-alarm rate with that probability (a real detector does not know p, and pays for it).
 Noise that is not i.i.d., or a path-loss exponent the GCS must estimate, only make it worse.
 
+It is a bound only where the receivers' sensitivity does not bind on the spoofer's links
+(every link's mean well above the cut: exponent 2 over the paper's square kilometre). Where
+it does (exponent 3 puts 20 dBm at -95 dBm about 320 m away) the receptions reported are a
+censored sample, which this oracle takes for an uncensored one, and the receivers that did
+not hear a transmission carry evidence it does not count: on exponent 3 at 16 aircraft a
+censored likelihood-ratio test on the GCS's own fit crossed its threshold before this
+"bound" in some runs (``censored_evidence.py``; docs/results/robustness.md).
+
 ``python -m ridsafe.tools.analysis.detection_bound LOG...`` prints, per channel (n, sigma),
 the bound's median, 90th percentile and worst over the logs.
 """
