@@ -49,12 +49,11 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import minimize
-from scipy.special import log_ndtr
 from scipy.stats import chi2
 
 from ridsafe.common import topics
 from ridsafe.common.mav_enums import OdidMessageType
+from ridsafe.gcs.detection import censored_kernels
 from ridsafe.tools.analysis.run_arrays import DETECTION_RECEIVERS
 from ridsafe.tools.runlog.reader import LogReadError, read_records
 
@@ -68,15 +67,11 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
-_DB_PER_LOG10 = 10.0
-#: Exponents are clipped here: where the search strays far, a ratio of tiny densities.
-_MAX_EXP = 700.0
 _LN10 = math.log(10.0)
 #: The offset search starts at 0 and at the best points of a level grid of this spacing and
 #: reach (m), the power held at its fit under no offset.
 _GRID_STEP_M = 30.0
 _GRID_REACH_M = 150.0
-_GRID_STARTS = 2
 _GRID = np.array(
     [
         [x, y, 0.0]
@@ -108,76 +103,28 @@ class Heard:
     rssi_dbm: FloatArray
 
 
-def _negative_log_likelihood(
-    params: FloatArray, window: Sequence[Heard], channel: CensoredChannel, misses: bool = True
-) -> tuple[float, FloatArray]:
-    """-l(delta, P) and its gradient over (delta_e, delta_n, delta_u, P). Without
-    ``misses`` only the receptions count, each given that it was heard (the normal truncated
-    at the floor: what a test of the receptions alone, their lift corrected, has)."""
-    delta, power = params[:3], params[3]
-    s, q = channel.sigma_db, channel.miss_floor
-    log_q, log_1q = math.log(q), math.log1p(-q)
-    total, grad = 0.0, np.zeros(4)
-    for tx in window:
-        diff = tx.claimed_p_enu_m - delta - tx.rx_p_enu_m
-        d2 = np.maximum(np.sum(diff * diff, axis=1), 1.0)
-        mu = power - 0.5 * _DB_PER_LOG10 * channel.exponent * np.log10(d2)
-        dmu_ddelta = (_DB_PER_LOG10 * channel.exponent / _LN10) * diff / d2[:, None]
-        a = (channel.floor_dbm - mu) / s
-        log_pdf = -0.5 * a * a - 0.5 * math.log(2.0 * math.pi)
-        h = tx.heard
-        e = (tx.rssi_dbm[h] - mu[h]) / s
-        dnll_dmu = np.zeros(mu.shape[0])
-        dnll_dmu[h] = -e / s
-        total += 0.5 * float(e @ e)
-        if misses:
-            log_miss = np.logaddexp(log_q, log_1q + log_ndtr(a[~h]))
-            total -= float(log_miss.sum())
-            dnll_dmu[~h] = np.exp(np.minimum(log_1q + log_pdf[~h] - log_miss, _MAX_EXP)) / s
-        else:
-            log_heard = log_ndtr(-a[h])
-            total += float(log_heard.sum())
-            dnll_dmu[h] += np.exp(np.minimum(log_pdf[h] - log_heard, _MAX_EXP)) / s
-        grad[:3] += dnll_dmu @ dmu_ddelta
-        grad[3] += dnll_dmu.sum()
-    return total, grad
-
-
-def _grid_starts(
-    window: Sequence[Heard], channel: CensoredChannel, power: float, misses: bool
-) -> list[FloatArray]:
-    """The ``_GRID_STARTS`` best offsets of ``_GRID`` at ``power``."""
-    values = np.array(
-        [_negative_log_likelihood(np.append(g, power), window, channel, misses)[0] for g in _GRID]
-    )
-    return [_GRID[k] for k in np.argsort(values)[:_GRID_STARTS]]
-
-
 def offset_glrt(window: Sequence[Heard], channel: CensoredChannel, misses: bool = True) -> float:
-    """T = 2 (max l(delta, P) - max l(0, P)) over the window (module docstring); 0 when no
-    receiver heard any of it."""
-    heard = [tx.rssi_dbm[tx.heard] for tx in window if tx.heard.any()]
-    if not heard:
+    """T = 2 (max l(delta, P) - max l(0, P)) over the window (module docstring;
+    ``gcs/detection/censored_kernels.py``); 0 when no receiver heard any of it. Without
+    ``misses`` only the receptions count, each given that it was heard (what a test of the
+    receptions alone, their lift accounted for, has)."""
+    if not window:
         return 0.0
-    power0 = float(np.median(np.concatenate(heard)))  # any start: P is refined below
-
-    def at_zero(p: FloatArray) -> tuple[float, FloatArray]:
-        params = np.array([0.0, 0.0, 0.0, p[0]])
-        f, g = _negative_log_likelihood(params, window, channel, misses)
-        return f, g[3:]
-
-    null = minimize(at_zero, [power0], jac=True, method="L-BFGS-B")
-    best = float(null.fun)
-    for start in [np.zeros(3), *_grid_starts(window, channel, float(null.x[0]), misses)]:
-        fit = minimize(
-            _negative_log_likelihood,
-            np.append(start, null.x[0]),
-            args=(window, channel, misses),
-            jac=True,
-            method="L-BFGS-B",
-        )
-        best = min(best, float(fit.fun))
-    return max(2.0 * (float(null.fun) - best), 0.0)
+    diff = np.concatenate([tx.claimed_p_enu_m - tx.rx_p_enu_m for tx in window])
+    heard = np.concatenate([tx.heard for tx in window])
+    rssi = np.where(heard, np.concatenate([tx.rssi_dbm for tx in window]), 0.0)
+    floor = np.full(heard.shape[0], channel.floor_dbm)
+    return censored_kernels.offset_glrt(
+        diff,
+        heard,
+        rssi,
+        floor,
+        channel.exponent,
+        channel.sigma_db,
+        channel.miss_floor,
+        misses,
+        _GRID,
+    )
 
 
 def surprisal(statistic: float) -> float:
