@@ -114,7 +114,8 @@ class ImmModel:
     def matrices(self, mode: int, dt_s: float) -> tuple[FloatArray, FloatArray]:
         """(F, Q) of a mode's whole state (kinematics, then the extra random walks), cached
         per interval (treat them as read-only)."""
-        key = (mode, round(dt_s, 9))
+        dt_s = round(dt_s, 9)  # the key, and what is computed: the same whatever came first
+        key = (mode, dt_s)
         hit = self._matrices.get(key)
         if hit is not None:
             return hit
@@ -136,7 +137,7 @@ class ImmModel:
         self, dt_s: float
     ) -> tuple[FloatArray, tuple[FloatArray, ...], tuple[FloatArray, ...]]:
         """(Pi over ``dt_s``, every mode's F, every mode's Q), cached per interval."""
-        key = round(dt_s, 9)
+        key = dt_s = round(dt_s, 9)  # as ``matrices``
         hit = self._steps.get(key)
         if hit is not None:
             return hit
@@ -209,12 +210,12 @@ _TRANSITION_CACHE: dict[tuple[bytes, float], FloatArray] = {}
 
 def transition_over(transition: FloatArray, dt_s: float, dt_ref_s: float) -> FloatArray:
     """Pi^(dt / dt_ref): the mode chain over a real interval."""
-    steps = dt_s / dt_ref_s
+    steps = round(dt_s / dt_ref_s, 9)  # the key, and what is computed (ImmModel.matrices)
     if abs(steps - 1.0) < 1e-9:
         return transition
     if steps <= 0.0:
         return np.eye(transition.shape[0])
-    key = (transition.tobytes(), round(steps, 9))
+    key = (transition.tobytes(), steps)
     hit = _TRANSITION_CACHE.get(key)
     if hit is not None:
         return hit

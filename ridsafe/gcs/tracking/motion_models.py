@@ -134,8 +134,10 @@ class MotionModel:
         return self.matrices(dt_s)[1]
 
     def matrices(self, dt_s: float) -> tuple[FloatArray, FloatArray]:
-        """(F, Q) over ``dt_s``, cached (intervals repeat: cycle multiples)."""
-        key = round(dt_s, 9)
+        """(F, Q) over ``dt_s``, cached (intervals repeat: cycle multiples). The interval is
+        rounded to 1e-9 s before both, so the matrices do not depend on which of two
+        intervals that round alike came first (a model lives across a sweep worker's runs)."""
+        key = dt_s = round(dt_s, 9)
         hit = self._cache.get(key)
         if hit is not None:
             return hit

@@ -248,3 +248,25 @@ def test_compiled_predict_and_merge_match_the_numpy_reference(dt: float) -> None
         fused, fused_ref = imm.merge(got, model, order), imm.merge_reference(got, model, order)
         np.testing.assert_allclose(fused.x, fused_ref.x, rtol=1e-10, atol=1e-9)
         np.testing.assert_allclose(fused.P, fused_ref.P, rtol=1e-10, atol=1e-9)
+
+
+def test_a_cached_interval_is_the_same_whatever_came_before_it() -> None:
+    """The caches key an interval rounded to 1e-9 s. Two intervals that round alike must get
+    the same matrices however the cache was filled: a model lives across the runs of a sweep
+    worker, and its outputs may not depend on which run came first."""
+    dt, near = 0.3, 0.3 + 4e-11  # the same key, different floats
+    imm._TRANSITION_CACHE.clear()
+    fresh = imm.transition_over(ASYMMETRIC, dt, 0.25).copy()
+    imm._TRANSITION_CACHE.clear()
+    imm.transition_over(ASYMMETRIC, near, 0.25)
+    np.testing.assert_array_equal(imm.transition_over(ASYMMETRIC, dt, 0.25), fresh)
+
+    fresh_model, used_model = _model(ASYMMETRIC), _model(ASYMMETRIC)
+    used_model.over(near)
+    (pi, fs, qs), (pi0, fs0, qs0) = used_model.over(dt), fresh_model.over(dt)
+    for got, want in zip((pi, *fs, *qs), (pi0, *fs0, *qs0), strict=True):
+        np.testing.assert_array_equal(got, want)
+    fresh_cv, used_cv = MotionModel("CV", 2, q_psd=0.5), MotionModel("CV", 2, q_psd=0.5)
+    used_cv.matrices(near)
+    for got, want in zip(used_cv.matrices(dt), fresh_cv.matrices(dt), strict=True):
+        np.testing.assert_array_equal(got, want)
