@@ -204,7 +204,9 @@ def test_the_command_reports_the_crossing_no_earlier_than_the_fit(
     assert main([str(log), "--until-s", "10"]) == 0
     printed = capsys.readouterr().out
     assert 0.0 < ev.honest_max < 6.0  # the middle receiver's own claims, tested
+    assert 0.0 < ev.honest_max_received_only < 6.0
     assert "1 runs, tested up to 10 s: delay median / p90 / worst" in printed
+    assert "largest honest surprisal on the receptions alone" in printed
     assert str(log) in printed
 
 
