@@ -55,6 +55,7 @@ from scipy.stats import chi2
 from ridsafe.common import topics
 from ridsafe.common.mav_enums import OdidMessageType
 from ridsafe.gcs.detection import censored_kernels
+from ridsafe.tools.analysis.detection_bound import delay_summary
 from ridsafe.tools.analysis.run_arrays import DETECTION_RECEIVERS
 from ridsafe.tools.runlog.reader import LogReadError, read_records
 
@@ -284,12 +285,6 @@ def _time(t_s: float | None) -> str:
     return "never" if t_s is None else f"{t_s:.2f}"
 
 
-def _summary(values: Sequence[float]) -> str:
-    a = np.asarray(values)
-    picked = np.quantile(a, (0.5, 0.9, 1.0), method="inverted_cdf")
-    return " / ".join("never" if math.isinf(v) else f"{v:.1f}" for v in picked)
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("logs", nargs="+", type=Path, metavar="LOG")
@@ -324,8 +319,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"{ev.honest_max_received_only:.2f}",
             flush=True,
         )
-    with_misses = _summary([ev.delay_s(ev.crossed_s) for ev in runs])
-    received_only = _summary([ev.delay_s(ev.crossed_received_only_s) for ev in runs])
+    with_misses = delay_summary([ev.delay_s(ev.crossed_s) for ev in runs])
+    received_only = delay_summary([ev.delay_s(ev.crossed_received_only_s) for ev in runs])
     print(
         f"{len(runs)} runs, tested up to {args.until_s:g} s: delay median / p90 / worst "
         f"{with_misses} s with the misses, {received_only} s on the receptions alone"
@@ -337,7 +332,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         over = sum(h > args.threshold for h in honest)
         print(
             f"  largest honest surprisal {name}, median / p90 / worst over runs: "
-            f"{_summary(honest)} ({over} runs over {args.threshold:g})"
+            f"{delay_summary(honest)} ({over} runs over {args.threshold:g})"
         )
     return 0
 

@@ -46,7 +46,13 @@ from ridsafe.common import topics
 from ridsafe.tools.analysis.run_arrays import DETECTION_RECEIVERS
 from ridsafe.tools.runlog.reader import LogReadError, read_records
 
-__all__ = ["SeparationCurve", "detection_bound_s", "required_lambda", "separation_curve"]
+__all__ = [
+    "SeparationCurve",
+    "delay_summary",
+    "detection_bound_s",
+    "required_lambda",
+    "separation_curve",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -128,7 +134,7 @@ def detection_bound_s(
     return float(curve.t_s[hit[0]] - curve.heard_by_s) if hit.size else math.inf
 
 
-def _summary(values: Sequence[float]) -> str:
+def delay_summary(values: Sequence[float]) -> str:
     """Median / 90th percentile / worst, each one of the values (inf: never in the log)."""
     a = np.asarray(values)
     picked = np.quantile(a, (0.5, 0.9, 1.0), method="inverted_cdf")
@@ -157,7 +163,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     for exponent in (float(x) for x in args.exponents.split(",")):
         for sigma in (float(x) for x in args.sigmas.split(",")):
             delays = [detection_bound_s(c, exponent, sigma, needed) for c in curves]
-            print(f"  exponent {exponent:g}, sigma {sigma:g} dB: {_summary(delays)}")
+            print(f"  exponent {exponent:g}, sigma {sigma:g} dB: {delay_summary(delays)}")
     return 0
 
 
