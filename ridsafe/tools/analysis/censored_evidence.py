@@ -1,6 +1,6 @@
 r"""Who did not hear it: the evidence a censored channel's misses hold about a claimed position.
 
-A receiver reports nothing weaker than its sensitivity ``c``. Where the cut binds (a
+A receiver reports nothing weaker than its sensitivity ``f``. Where the cut binds (a
 path-loss exponent of 3 puts a 20 dBm transmitter at -95 dBm about 320 m away), the fleet
 receivers that did *not* report a transmission say as much as those that did: a claim that
 puts the transmitter near a listening receiver that heard nothing is unlikely. The detectors
@@ -13,7 +13,7 @@ by every listening fleet receiver i (positions r_i), the claim at c::
 
     mu_i = P - 10 n log10(max(||c - delta - r_i||, 1))       (P: power less the 1 m loss)
     heard with RSSI z_i:  density (1 - q) phi((z_i - mu_i) / s) / s
-    not heard:            q + (1 - q) Phi((c - mu_i) / s)
+    not heard:            q + (1 - q) Phi((f - mu_i) / s)
 
 with q a miss probability the channel always has (packet loss; ``--miss-floor``). The test is
 the generalised likelihood ratio of a common offset delta (the transmitter is not where it
@@ -92,6 +92,12 @@ class CensoredChannel:
     sigma_db: float
     floor_dbm: float
     miss_floor: float = 0.01
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.miss_floor < 1.0:
+            raise ValueError(f"miss floor: expected 0 < q < 1, got {self.miss_floor:g}")
+        if not self.sigma_db > 0.0:
+            raise ValueError(f"sigma: expected > 0 dB, got {self.sigma_db:g}")
 
 
 @dataclass(frozen=True)
@@ -216,12 +222,12 @@ def _heard(log: _Log, sender: int, t_s: float, receptions: dict[int, float]) -> 
     return Heard(claimed, rx, ~np.isnan(rssi), rssi)
 
 
-def _channel_at(log: _Log, t_s: float) -> CensoredChannel:
+def _channel_at(log: _Log, t_s: float, miss_floor: float) -> CensoredChannel:
     """The GCS's fit in force at ``t_s`` (its first for claims before it) and the floor."""
     k = max(bisect.bisect_right(log.channel_t, t_s) - 1, 0)
     exponent, sigma_db = log.channel[k]
     f = max(bisect.bisect_right(log.floor_t, t_s) - 1, 0)
-    return CensoredChannel(exponent, sigma_db, log.floor_dbm[f])
+    return CensoredChannel(exponent, sigma_db, log.floor_dbm[f], miss_floor)
 
 
 def _windows(
@@ -247,6 +253,7 @@ def run_evidence(
     until_s: float = 30.0,
     every_s: float = 1.0,
     threshold: float = 6.0,
+    miss_floor: float = 0.01,
 ) -> RunEvidence:
     """The misses' evidence in one log (module docstring)."""
     log = _read(path)
@@ -260,7 +267,8 @@ def run_evidence(
     crossed: dict[bool, float | None] = {True: None, False: None}
     for misses in crossed:
         for t_s, window in _windows(log, log.spoofer, window_s, 0.0, until_s):
-            if surprisal(offset_glrt(window, _channel_at(log, t_s), misses)) > threshold:
+            channel = _channel_at(log, t_s, miss_floor)
+            if surprisal(offset_glrt(window, channel, misses)) > threshold:
                 crossed[misses] = t_s
                 break
     honest_max = {True: 0.0, False: 0.0}
@@ -268,7 +276,7 @@ def run_evidence(
         if sender == log.spoofer:
             continue
         for t_s, window in _windows(log, sender, window_s, every_s, until_s):
-            channel = _channel_at(log, t_s)
+            channel = _channel_at(log, t_s, miss_floor)
             for misses, worst in honest_max.items():
                 honest_max[misses] = max(worst, surprisal(offset_glrt(window, channel, misses)))
     return RunEvidence(
@@ -292,6 +300,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--until-s", type=float, default=30.0, help="test claims up to S seconds")
     parser.add_argument("--every-s", type=float, default=1.0, help="honest claims tested (s)")
     parser.add_argument("--threshold", type=float, default=6.0, help="surprisal")
+    parser.add_argument("--miss-floor", type=float, default=0.01, help="q, a miss's floor")
     args = parser.parse_args(argv)
     runs: list[RunEvidence] = []
     print(
@@ -307,6 +316,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 until_s=args.until_s,
                 every_s=args.every_s,
                 threshold=args.threshold,
+                miss_floor=args.miss_floor,
             )
         except (ValueError, KeyError, OSError, LogReadError) as exc:
             print(f"censored_evidence: {exc}", file=sys.stderr)

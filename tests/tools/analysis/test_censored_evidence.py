@@ -210,9 +210,12 @@ def test_the_command_reports_the_crossing_no_earlier_than_the_fit(
     assert str(log) in printed
 
 
-def test_a_log_without_a_fitted_channel_is_a_clear_error(
+def test_a_log_without_a_fitted_channel_or_a_miss_floor_of_0_is_a_clear_error(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     log = _log(tmp_path / "no_fit.mcap", channel=False)
     assert main([str(log)]) == 2
     assert "no fitted channel" in capsys.readouterr().err
+    fitted = _log(tmp_path / "run.mcap", channel=True)
+    assert main([str(fitted), "--miss-floor", "0"]) == 2
+    assert "miss floor: expected 0 < q < 1, got 0" in capsys.readouterr().err
