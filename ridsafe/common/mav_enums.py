@@ -164,6 +164,7 @@ class RidsafeDetector(enum.IntEnum):
     CUSUM = 4
     MLAT = 5
     MLAT_LONG = 6
+    MLAT_CENSORED = 7
 
 
 class RidTransport(enum.IntEnum):

@@ -66,6 +66,12 @@ class ObservedClaim:
     #: same). The calibration's antenna gain by elevation is taken at the claimed position:
     #: right for testing the claim, wrong for locating a transmitter that lies about it.
     track_rssi_dbm: FloatArray | None = None
+    #: Where the receivers' sensitivity is estimated (``calibration/censoring.py``), the
+    #: receptions as a censored sample for MLAT_CENSORED (``detection/censored.py``): the
+    #: RSSI mapped as ``rssi_dbm`` is but without the lift above the cut subtracted, and
+    #: each receiver's cut on the same scale (None: no cut known).
+    cut_rssi_dbm: FloatArray | None = None
+    cut_floor_dbm: FloatArray | None = None
 
     @functools.cached_property
     def t_s(self) -> float:

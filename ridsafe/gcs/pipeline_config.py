@@ -86,6 +86,15 @@ class DetectionConfig:
     #: aircraft's long-window statistics grow too, its null rises, and the short window keeps
     #: its speed. 0: off.
     long_window_s: float = 0.0
+    #: > 0: MLAT_CENSORED (``detection/censored.py``), the likelihood-ratio test of a common
+    #: offset over this window (seconds) with each reception taken from a normal truncated
+    #: at its receiver's cut (nothing weaker is reported), where the calibration estimates
+    #: the cut. A transmitter heard only near the cut (a short-range channel: exponent 3) is
+    #: tested on what such receptions hold, where the lift-corrected score test (MLAT) loses
+    #: most of it. Run only on windows with a reception within ``censored_margin_sigma``
+    #: noise stds of its cut (elsewhere it is the MLAT test). 0: off.
+    censored_window_s: float = 0.0
+    censored_margin_sigma: float = 3.0
     #: False-alarm probability per transmission of POWER_SPREAD, NIS_WINDOW, MLAT and MLAT_LONG
     #: (each; with the long window on, the two MLAT tests together up to twice this); their
     #: statistics are reported as surprisal -log10(p-value), threshold -log10(this).
@@ -99,6 +108,7 @@ class DetectionConfig:
         RidsafeDetector.NIS_WINDOW,
         RidsafeDetector.CUSUM,
         RidsafeDetector.MLAT_LONG,  # reported only with long_window_s > 0
+        RidsafeDetector.MLAT_CENSORED,  # reported only with censored_window_s > 0
     )
 
     def __post_init__(self) -> None:
@@ -119,6 +129,8 @@ class DetectionConfig:
                 f"expected 0 (off) or more than window_s={self.window_s:g}, "
                 f"got {self.long_window_s:g}",
             )
+        check_non_negative("censored_window_s", self.censored_window_s)
+        check_positive("censored_margin_sigma", self.censored_margin_sigma)
         check_positive("cusum_threshold", self.cusum_threshold)
         for i, det in enumerate(self.alerting):
             if det is RidsafeDetector.FORCED:

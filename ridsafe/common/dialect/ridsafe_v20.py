@@ -375,8 +375,10 @@ RIDSAFE_DETECTOR_MLAT = 5
 enums["RIDSAFE_DETECTOR"][5] = EnumEntry("RIDSAFE_DETECTOR_MLAT", """Distance between the multilateration fix and the claimed position.""")
 RIDSAFE_DETECTOR_MLAT_LONG = 6
 enums["RIDSAFE_DETECTOR"][6] = EnumEntry("RIDSAFE_DETECTOR_MLAT_LONG", """The multilateration test over a longer window of the transmitter's claims.""")
-RIDSAFE_DETECTOR_ENUM_END = 7
-enums["RIDSAFE_DETECTOR"][7] = EnumEntry("RIDSAFE_DETECTOR_ENUM_END", """""")
+RIDSAFE_DETECTOR_MLAT_CENSORED = 7
+enums["RIDSAFE_DETECTOR"][7] = EnumEntry("RIDSAFE_DETECTOR_MLAT_CENSORED", """The likelihood-ratio test of a position offset on the receptions as a censored sample: none weaker than its receiver's sensitivity is reported.""")
+RIDSAFE_DETECTOR_ENUM_END = 8
+enums["RIDSAFE_DETECTOR"][8] = EnumEntry("RIDSAFE_DETECTOR_ENUM_END", """""")
 
 # RIDSAFE_ALERT_STATE
 enums["RIDSAFE_ALERT_STATE"] = Enum()

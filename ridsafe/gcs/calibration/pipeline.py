@@ -126,6 +126,7 @@ def to_free_space_all(
     tested: ChannelEstimate | None = None,
     floor_dbm: float = -math.inf,
     tracks: ChannelEstimate | None = None,
+    censored_sample: bool = False,
 ) -> list[ObservedClaim]:
     """``to_free_space`` of each claim, the cycle's receptions mapped in one pass. With
     ``tested`` (the detectors' fit: with the links' gain by elevation, or on the RSSI less
@@ -133,9 +134,12 @@ def to_free_space_all(
     claimed position (a test of the claim), and the tracks (``track_rssi_dbm``) the RSSI
     mapped by ``estimate`` (they cannot know a liar's elevation). With a finite
     ``floor_dbm`` (the receivers' sensitivity, as estimated) the detectors' RSSI is less each
-    link's expected lift above its mean at the claimed position (``censoring.py``); the
-    tracks' is not. With ``tracks`` (a fit the running tracks hold to) the tracks get the
-    RSSI mapped by it, the detectors by ``estimate`` (or ``tested``)."""
+    link's expected lift above its mean at the claimed position (``censoring.py``), and with
+    ``censored_sample`` the claims carry their receptions as a censored sample as well
+    (``ObservedClaim.cut_rssi_dbm``, ``cut_floor_dbm``: MLAT_CENSORED's input); the tracks'
+    RSSI is not lifted. With ``tracks`` (a fit the running
+    tracks hold to) the tracks get the RSSI mapped by it, the detectors by ``estimate`` (or
+    ``tested``)."""
     if not claims:
         return []
     bounds_array = reception_bounds(claims)
@@ -165,6 +169,12 @@ def to_free_space_all(
     gain_db = tested.elevation_gain_of(elevation_deg)
     bias_db = tested.bias_of(rx_sysid)
     corrected = rssi_dbm - bias_db - gain_db
+    cut: tuple[FloatArray, FloatArray] | None = None  # (RSSI, cut) as a censored sample
+    if math.isfinite(floor_dbm) and censored_sample:
+        cut = (
+            _mapped(corrected, tested, pivot_dbm),
+            _mapped(floor_dbm - bias_db - gain_db, tested, pivot_dbm),
+        )
     if math.isfinite(floor_dbm):
         loss_db = 10.0 * tested.exponent * np.log10(np.maximum(distance_m, 1.0)) - gain_db
         corrected = corrected - lift_at_claims(
@@ -176,6 +186,8 @@ def to_free_space_all(
             claim,
             rssi_dbm=for_test[bounds[j] : bounds[j + 1]],
             track_rssi_dbm=for_tracks_dbm[bounds[j] : bounds[j + 1]],
+            cut_rssi_dbm=None if cut is None else cut[0][bounds[j] : bounds[j + 1]],
+            cut_floor_dbm=None if cut is None else cut[1][bounds[j] : bounds[j + 1]],
         )
         for j, claim in enumerate(claims)
     ]
@@ -243,6 +255,7 @@ class CalibratingPipeline:
                 self.tested_estimate,
                 self._floor_dbm(),
                 self.tracks_estimate,
+                censored_sample=self.config.detection.censored_window_s > 0.0,
             )
             if self._track_noise is not None:
                 self._track_noise.observe(claims)

@@ -2,8 +2,9 @@ r"""Compiled (numba) likelihood-ratio test of a claimed position on a censored c
 
 One transmitter's window of claims as *terms*, one per (claim, listening receiver): the
 claimed position less the receiver's (``diff``), whether it heard the claim, its RSSI, and
-the receiver's cut (``floor``: nothing weaker is reported). With mu = P - 10 n log10 ||diff -
-delta|| (P the power less the 1 m loss), a term contributes to the log-likelihood
+the receiver's cut (``floor``: nothing weaker is reported), and its noise std ``sigma``. With
+mu = P - 10 n log10 ||diff - delta|| (P the power less the 1 m loss), a term contributes to
+the log-likelihood
 
 * heard: log phi((rssi - mu) / s), and with ``misses`` off, - log(1 - Phi((floor - mu) / s))
   (the reception given that it was heard: a normal truncated at the cut);
@@ -12,9 +13,10 @@ delta|| (P the power less the 1 m loss), a term contributes to the log-likelihoo
 
 ``offset_glrt`` returns T = 2 (max l(delta, P) - max l(0, P)), about chi2_3 for an honest
 claim: the search starts at delta = 0 and at the best points of a grid of offsets, each
-refined by BFGS with a backtracking line search. The offline measurement
-``tools/analysis/censored_evidence.py`` runs it on a log's claims; no detector of the GCS
-runs it yet (docs/results/robustness.md, "Who did not hear it"). After editing, delete
+refined by BFGS with a backtracking line search. The GCS's MLAT_CENSORED detector
+(``censored.py``) runs it on the receptions alone; ``tools/analysis/censored_evidence.py``
+also with the misses, on a log's claims (docs/results/robustness.md, "Who did not hear
+it"). After editing, delete
 ``ridsafe/gcs/detection/__pycache__/*.nb[ci]`` (numba's cache does not track other
 modules).
 """
@@ -68,7 +70,7 @@ def censored_nll(
     rssi: FloatArray,
     floor: FloatArray,
     exponent: float,
-    sigma: float,
+    sigma: FloatArray,
     miss_floor: float,
     misses: bool,
 ) -> tuple[float, FloatArray]:
@@ -82,22 +84,23 @@ def censored_nll(
         dz = diff[i, 2] - theta[2]
         d2 = max(dx * dx + dy * dy + dz * dz, 1.0)
         mu = theta[3] - 0.5 * exponent * _DB_PER_LN * math.log(d2)
-        a = (floor[i] - mu) / sigma
+        s = sigma[i]
+        a = (floor[i] - mu) / s
         log_pdf_a = -0.5 * a * a - _HALF_LOG_2PI
         if heard[i]:
-            e = (rssi[i] - mu) / sigma
+            e = (rssi[i] - mu) / s
             total += 0.5 * e * e
-            dnll_dmu = -e / sigma
+            dnll_dmu = -e / s
             if not misses:
                 log_heard = log_norm_cdf(-a)
                 total += log_heard
-                dnll_dmu += math.exp(min(log_pdf_a - log_heard, _MAX_EXP)) / sigma
+                dnll_dmu += math.exp(min(log_pdf_a - log_heard, _MAX_EXP)) / s
         elif misses:
             b = log_1q + log_norm_cdf(a)
             hi, lo = max(log_q, b), min(log_q, b)
             log_miss = hi + math.log1p(math.exp(lo - hi))
             total -= log_miss
-            dnll_dmu = math.exp(min(log_1q + log_pdf_a - log_miss, _MAX_EXP)) / sigma
+            dnll_dmu = math.exp(min(log_1q + log_pdf_a - log_miss, _MAX_EXP)) / s
         else:
             continue
         # d mu / d delta = 10 n / ln 10 * (diff - delta) / d^2 (moving the source away)
@@ -118,7 +121,7 @@ def _minimise(
     rssi: FloatArray,
     floor: FloatArray,
     exponent: float,
-    sigma: float,
+    sigma: FloatArray,
     miss_floor: float,
     misses: bool,
 ) -> tuple[FloatArray, float]:
@@ -171,7 +174,7 @@ def offset_glrt(
     rssi: FloatArray,
     floor: FloatArray,
     exponent: float,
-    sigma: float,
+    sigma: FloatArray,
     miss_floor: float,
     misses: bool,
     grid: FloatArray,

@@ -13,7 +13,8 @@ __all__ = ["TransmitterMonitor", "observe_batch"]
 
 class TransmitterMonitor:
     """Every detector's memory for one claimed transmitter (benign or not), made from
-    ``detectors`` (the registry unless told otherwise) when the uas_id is first heard."""
+    ``detectors`` (the registry unless told otherwise) when the uas_id is first heard; the
+    ones the configuration turns off (their factory returns None) are left out."""
 
     def __init__(
         self,
@@ -22,9 +23,8 @@ class TransmitterMonitor:
         detectors: Mapping[str, DetectorFactory] = DETECTORS,
     ) -> None:
         self.uas_id = uas_id
-        self.detectors: tuple[Detector, ...] = tuple(
-            make(uas_id, cfg) for make in detectors.values()
-        )
+        made = (make(uas_id, cfg) for make in detectors.values())
+        self.detectors: tuple[Detector, ...] = tuple(d for d in made if d is not None)
 
     def observe(self, claim: ObservedClaim) -> tuple[DetectorResult, ...]:
         """Every detector's results on one claim, in registry order."""

@@ -11,7 +11,8 @@ How to add a detector (one new module plus one line here):
    transmitter's memory and has the ``Detector`` method
    ``observe(claim) -> tuple[DetectorResult, ...]`` (one result per test it runs: statistic,
    threshold, decision), and a constructor ``(uas_id, cfg: PipelineConfig) -> instance``
-   (a classmethod such as ``RssiConsistencyDetectors.for_transmitter``). A compiled kernel,
+   (a classmethod such as ``RssiConsistencyDetectors.for_transmitter``; it may return None
+   where the configuration turns the detector off). A compiled kernel,
    if it needs one, goes beside it as ``<name>_kernels.py`` (``ridsafe.common.jit``).
 2. Add ``"<name>": <Class>.for_transmitter`` to ``DETECTORS`` below.
 
@@ -27,6 +28,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Protocol
 
+from ridsafe.gcs.detection.censored import CensoredLikelihoodDetector
 from ridsafe.gcs.detection.rssi_consistency import RssiConsistencyDetectors
 from ridsafe.gcs.pipeline_api import DetectorResult, ObservedClaim
 from ridsafe.gcs.pipeline_config import PipelineConfig
@@ -43,11 +45,15 @@ class Detector(Protocol):
         ...
 
 
-#: (uas_id, the pipeline's configuration) -> that transmitter's detector
-DetectorFactory = Callable[[str, PipelineConfig], Detector]
+#: (uas_id, the pipeline's configuration) -> that transmitter's detector (None: not run
+#: with this configuration)
+DetectorFactory = Callable[[str, PipelineConfig], Detector | None]
 
 #: name -> factory; every registered detector runs on every claim, in this order.
 DETECTORS: dict[str, DetectorFactory] = {
     # NIS (the paper's), POWER_SPREAD, NIS_WINDOW, CUSUM, MLAT: the RSSI against the claim
     "rssi_consistency": RssiConsistencyDetectors.for_transmitter,
+    # MLAT_CENSORED: with detection.censored_window_s > 0, where the calibration estimates
+    # the receivers' cut
+    "censored_likelihood": CensoredLikelihoodDetector.for_transmitter,
 }

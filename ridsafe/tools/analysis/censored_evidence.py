@@ -55,6 +55,7 @@ from scipy.stats import chi2
 from ridsafe.common import topics
 from ridsafe.common.mav_enums import OdidMessageType
 from ridsafe.gcs.detection import censored_kernels
+from ridsafe.gcs.detection.censored import SEARCH_GRID_ENU_M
 from ridsafe.tools.analysis.detection_bound import delay_summary
 from ridsafe.tools.analysis.run_arrays import DETECTION_RECEIVERS
 from ridsafe.tools.runlog.reader import LogReadError, read_records
@@ -70,17 +71,6 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 
 _LN10 = math.log(10.0)
-#: The offset search starts at 0 and at the best points of a level grid of this spacing and
-#: reach (m), the power held at its fit under no offset.
-_GRID_STEP_M = 30.0
-_GRID_REACH_M = 150.0
-_GRID = np.array(
-    [
-        [x, y, 0.0]
-        for x in np.arange(-_GRID_REACH_M, _GRID_REACH_M + 1.0, _GRID_STEP_M)
-        for y in np.arange(-_GRID_REACH_M, _GRID_REACH_M + 1.0, _GRID_STEP_M)
-    ]
-)
 
 
 @dataclass(frozen=True)
@@ -128,10 +118,10 @@ def offset_glrt(window: Sequence[Heard], channel: CensoredChannel, misses: bool 
         rssi,
         floor,
         channel.exponent,
-        channel.sigma_db,
+        np.full(heard.shape[0], channel.sigma_db),
         channel.miss_floor,
         misses,
-        _GRID,
+        SEARCH_GRID_ENU_M,
     )
 
 

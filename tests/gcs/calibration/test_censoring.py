@@ -180,6 +180,24 @@ def test_the_pipeline_maps_the_detectors_rssi_less_the_lift_and_the_tracks_witho
     assert loss.shape == lift.shape
 
 
+def test_the_censored_sample_is_the_rssi_mapped_without_the_lift_and_the_cut_likewise() -> None:
+    """MLAT_CENSORED's input (``censored_sample``): the detectors' RSSI before the lift is
+    taken, and the cut mapped by the same fit; none unless asked for."""
+    claims, _, _ = _heard_claims(10, 30)
+    tx, rx, d, rssi, _ = _links(11, 3.0, CUT_DBM)
+    estimate = fit_channel(tx, rx, d, rssi, CFG, floor_dbm=CUT_DBM)
+    sample = to_free_space_all(claims, estimate, -10.0, None, CUT_DBM, censored_sample=True)
+    plain = to_free_space_all(claims, estimate, -10.0)
+    assert all(c.cut_rssi_dbm is None for c in to_free_space_all(claims, estimate, -10.0))
+    cut_rssi = np.concatenate([c.cut_rssi_dbm for c in sample if c.cut_rssi_dbm is not None])
+    np.testing.assert_allclose(cut_rssi, np.concatenate([c.rssi_dbm for c in plain]), atol=1e-12)
+    bias = np.concatenate([estimate.bias_of(c.rx_sysid) for c in claims])
+    floor = np.concatenate([c.cut_floor_dbm for c in sample if c.cut_floor_dbm is not None])
+    expected = -10.0 + (2.0 / estimate.exponent) * (CUT_DBM - bias + 10.0)
+    np.testing.assert_allclose(floor, expected, atol=1e-12)
+    assert np.all(cut_rssi >= floor - 1e-9)  # nothing under the cut was reported
+
+
 def test_the_lift_is_a_setting() -> None:
     on = CalibratingPipeline(PipelineConfig(calibration=CFG))
     off = CalibratingPipeline(

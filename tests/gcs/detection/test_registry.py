@@ -1,5 +1,6 @@
-"""The detector registry: by default the RSSI-consistency bank, unchanged by the monitor
-around it; a newly registered detector runs on every claim and can raise the alert."""
+"""The detector registry: by default the RSSI-consistency bank (the censored test is off),
+unchanged by the monitor around it; a newly registered detector runs on every claim and can
+raise the alert."""
 
 from __future__ import annotations
 
@@ -43,9 +44,11 @@ FACTORY: DetectorFactory = ClaimedAltitudeCeiling.for_transmitter  # mypy: the r
 
 
 def test_the_default_registry_is_the_rssi_bank_and_the_monitor_is_transparent() -> None:
-    assert list(DETECTORS) == ["rssi_consistency"]
+    """The censored test is registered but off by default: the monitor holds the bank only."""
+    assert list(DETECTORS) == ["rssi_consistency", "censored_likelihood"]
     cfg = PipelineConfig()
     monitor = TransmitterMonitor(SPOOFER_ID, cfg)
+    assert len(monitor.detectors) == 1
     bank = RssiConsistencyDetectors(SPOOFER_ID, cfg.detection, cfg.rssi_sigma_db)
     traffic = make_traffic(Scene(seed=3, n_receivers=8, duration_s=15.0))
     seen = 0

@@ -72,7 +72,8 @@ def test_the_compiled_likelihood_and_its_gradient_are_the_equations() -> None:
     assert 3 <= int(window[0].heard.sum()) < RECEIVERS.shape[0]  # censored
     terms = _terms(window)
     for misses in (True, False):
-        args = (*terms, CHANNEL.exponent, CHANNEL.sigma_db, CHANNEL.miss_floor, misses)
+        sigma = np.full(terms[1].shape[0], CHANNEL.sigma_db)
+        args = (*terms, CHANNEL.exponent, sigma, CHANNEL.miss_floor, misses)
         for params in ([0.0, 0.0, 0.0, -20.0], [40.0, -30.0, 5.0, -18.0], [-60, 10, 0, -25]):
             x = np.asarray(params, dtype=np.float64)
             value, grad = censored_nll(x, *args)
