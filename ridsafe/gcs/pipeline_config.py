@@ -89,14 +89,16 @@ class DetectionConfig:
     #: > 0: MLAT_CENSORED (``detection/censored.py``), the likelihood-ratio test of a common
     #: offset over this window (seconds) with each reception taken from a normal truncated
     #: at its receiver's cut (nothing weaker is reported), where the calibration estimates
-    #: the cut. A transmitter heard only near the cut (a short-range channel: exponent 3) is
-    #: tested on what such receptions hold, where the lift-corrected score test (MLAT) loses
-    #: most of it. Run only on windows with a reception within ``censored_margin_sigma``
-    #: noise stds of its cut (elsewhere it is the MLAT test). 0: off.
+    #: the cut: a transmitter heard only near the cut (a short-range channel: exponent 3) is
+    #: tested on what such receptions hold rather than on a lift subtracted from them. Run
+    #: only on windows with a reception within ``censored_margin_sigma`` noise stds of its
+    #: cut (elsewhere it is the MLAT test). Measured, not adopted: docs/results/
+    #: robustness.md, "Who did not hear it". 0: off.
     censored_window_s: float = 0.0
     censored_margin_sigma: float = 3.0
-    #: False-alarm probability per transmission of POWER_SPREAD, NIS_WINDOW, MLAT and MLAT_LONG
-    #: (each; with the long window on, the two MLAT tests together up to twice this); their
+    #: False-alarm probability per transmission of POWER_SPREAD, NIS_WINDOW, MLAT, MLAT_LONG
+    #: and MLAT_CENSORED (each; with the long window on, the two MLAT tests together up to
+    #: twice this, and more with the censored test); their
     #: statistics are reported as surprisal -log10(p-value), threshold -log10(this).
     p_false_alarm: float = 1e-6
     #: CUSUM on the probit of each transmission's MLAT p-value: g = max(0, g + z - drift).
