@@ -36,6 +36,7 @@ from ridsafe.common.messages import RidsafeDetector
 from ridsafe.common.pathloss import DB_PER_LN
 from ridsafe.gcs.detection.censored_kernels import offset_glrt
 from ridsafe.gcs.detection.rssi_consistency import surprisal
+from ridsafe.gcs.detection.rssi_state import RING
 from ridsafe.gcs.pipeline_api import DetectorResult, ObservedClaim
 from ridsafe.gcs.pipeline_config import PipelineConfig
 
@@ -65,9 +66,10 @@ class CensoredLikelihoodDetector:
         self._sigma_db = cfg.rssi_sigma_db
         self._position_sigma_m = cfg.detection.position_sigma_m
         self._threshold = -math.log10(cfg.detection.p_false_alarm)
-        #: (t_s, claimed minus receiver positions (k, 3), RSSI (k,), cut (k,), receivers (k,))
+        #: (t_s, claimed minus receiver positions (k, 3), RSSI (k,), cut (k,), receivers (k,));
+        #: at most the other windows' ``RING`` claims, however fast a transmitter claims
         self._claims: deque[tuple[float, FloatArray, FloatArray, FloatArray, NDArray[np.int64]]] = (
-            deque()
+            deque(maxlen=RING)
         )
 
     @classmethod

@@ -13,6 +13,7 @@ import pytest
 
 from ridsafe.common.messages import RidsafeDetector
 from ridsafe.gcs.detection.censored import CensoredLikelihoodDetector
+from ridsafe.gcs.detection.rssi_state import RING
 from ridsafe.gcs.pipeline_api import ObservedClaim
 from ridsafe.gcs.pipeline_config import DetectionConfig, PipelineConfig
 
@@ -88,6 +89,15 @@ def test_nothing_is_tested_without_a_cut_too_few_receivers_or_none_near_the_cut(
     assert len(CensoredLikelihoodDetector("X", CONFIG).observe(claim)) == (
         1 if claim.n_receivers >= 3 else 0
     )
+
+
+def test_a_transmitter_claiming_fast_holds_at_most_the_ring_of_claims() -> None:
+    rng = np.random.default_rng(2)
+    p = np.array([-380.0, -250.0, 60.0])
+    detector = CensoredLikelihoodDetector("X", CONFIG)
+    for k in range(RING + 40):  # all within one second
+        detector.observe(_claim(k / 200.0, p, p, rng))
+    assert len(detector._claims) == RING
 
 
 def test_it_is_off_by_default_and_a_negative_window_is_refused() -> None:
