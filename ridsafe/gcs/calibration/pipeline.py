@@ -137,9 +137,8 @@ def to_free_space_all(
     link's expected lift above its mean at the claimed position (``censoring.py``), and with
     ``censored_sample`` the claims carry their receptions as a censored sample as well
     (``ObservedClaim.cut_rssi_dbm``, ``cut_floor_dbm``: MLAT_CENSORED's input); the tracks'
-    RSSI is not lifted. With ``tracks`` (a fit the running
-    tracks hold to) the tracks get the RSSI mapped by it, the detectors by ``estimate`` (or
-    ``tested``)."""
+    RSSI is not lifted. With ``tracks`` (a fit the running tracks hold to) the tracks get
+    the RSSI mapped by it, the detectors by ``estimate`` (or ``tested``)."""
     if not claims:
         return []
     bounds_array = reception_bounds(claims)
@@ -511,7 +510,9 @@ class _TrackNoise:
     def __init__(
         self, config: PipelineConfig, labeller: CooperativeLabeller, variance_ratio: float
     ) -> None:
-        self.config = config
+        # Only MLAT is read: the censored test, whose input is the detectors' RSSI, is left out.
+        detection = dataclasses.replace(config.detection, censored_window_s=0.0)
+        self.config = dataclasses.replace(config, detection=detection)
         #: (the tracks' sigma / the detectors' sigma)^2: the inner pipeline's rssi_sigma_db
         #: is the detectors'.
         self.variance_ratio = variance_ratio
