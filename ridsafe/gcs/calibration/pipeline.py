@@ -208,7 +208,8 @@ class CalibratingPipeline:
         CooperativeLabeller.ensure_warm()
         self.config = config
         self.labeller = CooperativeLabeller(config.calibration)
-        self.review = CalibratedReview(config.calibration, self.labeller)
+        #: The fitted pipeline's review (its empirical null), made with each fit's pipeline.
+        self.review: CalibratedReview | None = None
         self.estimate: ChannelEstimate | None = None
         #: The fit the detectors' claims are mapped with, with the links' gain by elevation
         #: and on the RSSI less the sensitivity's lift (module docstring); None: the plain
@@ -403,7 +404,7 @@ class CalibratingPipeline:
 
     def _update_inflation(self, now_s: float) -> None:
         """Tracks started from now on localise with the noise the vouched claims show."""
-        if self.inner is None or self.estimate is None:
+        if self.inner is None or self.estimate is None or self.review is None:
             return
         if not self.config.calibration.honest_covariance:
             return
