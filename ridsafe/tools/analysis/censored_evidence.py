@@ -23,8 +23,10 @@ threshold (-log10 1e-6 = 6).
 
 What the GCS would know is taken from the log: the channel (n, s) of its fit
 (``/gcs/channel``, the latest at the claim, the first for the claims it held before its
-fit); the sensitivity as the weakest RSSI reported so far (as ``SensitivityFloor``); the
-listening receivers as every fleet aircraft. What it is given here from the simulator: the
+fit); the sensitivity as the weakest RSSI a fleet receiver heard so far (as
+``SensitivityFloor``: the spoofer's own radio reports to no one, and early in a run its
+receptions can be a dB weaker than any the fleet has); the listening receivers as every
+fleet aircraft. What it is given here from the simulator: the
 receivers' and the claims' positions (``/truth/vehicles``; the spoofer's claim is its truth
 plus its ``/run/meta`` offset), where the GCS has its aircraft's reports, and receivers
 without RSSI biases (the fit's biases are not logged). So this measures the misses'
@@ -47,6 +49,7 @@ import sys
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -166,13 +169,14 @@ class _Log:
 
 
 def _read(log: Path) -> _Log:
-    meta: dict[str, object] = {}
     out = _Log(0, np.zeros(3), [], [], {}, {}, [], [], [], [])
+    meta_seen = False
     weakest = math.inf
     wanted = (topics.RUN_META, topics.TRUTH, topics.RADIO_RX, topics.GCS_CHANNEL)
     for topic, t_s, record in read_records(log, topics=wanted):
         if topic == topics.RUN_META:
-            meta = record
+            out.spoofer, out.offset = _spoofer_of(log, record)
+            meta_seen = True
         elif topic == topics.GCS_CHANNEL:
             if record.get("exponent") is not None:
                 out.channel_t.append(t_s)
@@ -181,25 +185,42 @@ def _read(log: Path) -> _Log:
             out.truth_t.append(t_s)
             out.truth_p.append(np.asarray(record["p_enu_m"], dtype=np.float64))
             out.column = {int(s): k for k, s in enumerate(record["sysid"])}
+        elif not meta_seen:
+            raise ValueError(f"{log}: receptions before {topics.RUN_META}")
         else:
-            for item in record.get("items") or ():
-                weakest = min(weakest, float(item["rssi_dbm"]))
-                if int(item["msg_type"]) != OdidMessageType.LOCATION:
-                    continue
-                sent = out.sent.setdefault(int(item["sender"]), [])
-                if not sent or sent[-1][0] != t_s:
-                    sent.append((t_s, {}))
-                sent[-1][1][int(item["receiver"])] = float(item["rssi_dbm"])
-            out.floor_t.append(t_s)
-            out.floor_dbm.append(weakest)
-    spoofer = meta.get("spoofer")
-    if not isinstance(spoofer, dict) or "offset_enu_m" not in spoofer:
+            weakest = _add_receptions(out, t_s, record.get("items") or (), weakest)
+    if not meta_seen:
         raise ValueError(f"{log}: no spoofer with a constant offset in {topics.RUN_META}")
     if not out.channel:
         raise ValueError(f"{log}: no fitted channel in {topics.GCS_CHANNEL} (calibration off?)")
-    out.spoofer = int(spoofer["sysid"])
-    out.offset = np.asarray(spoofer["offset_enu_m"], dtype=np.float64)
     return out
+
+
+def _spoofer_of(log: Path, meta: dict[str, Any]) -> tuple[int, FloatArray]:
+    """The spoofer's system id and its constant claimed offset (m, ENU) from the run's meta."""
+    spoofer = meta.get("spoofer")
+    if not isinstance(spoofer, dict) or "offset_enu_m" not in spoofer:
+        raise ValueError(f"{log}: no spoofer with a constant offset in {topics.RUN_META}")
+    return int(spoofer["sysid"]), np.asarray(spoofer["offset_enu_m"], dtype=np.float64)
+
+
+def _add_receptions(out: _Log, t_s: float, items: Sequence[Any], weakest_dbm: float) -> float:
+    """Add one ``/radio/receptions`` record's LOCATION receptions to ``out.sent`` and the
+    cut as of ``t_s``: the weakest RSSI a fleet receiver heard so far (the spoofer's own
+    radio reports to no one). Returns that weakest RSSI."""
+    for item in items:
+        receiver, rssi_dbm = int(item["receiver"]), float(item["rssi_dbm"])
+        if receiver != out.spoofer:
+            weakest_dbm = min(weakest_dbm, rssi_dbm)
+        if int(item["msg_type"]) != OdidMessageType.LOCATION:
+            continue
+        sent = out.sent.setdefault(int(item["sender"]), [])
+        if not sent or sent[-1][0] != t_s:
+            sent.append((t_s, {}))
+        sent[-1][1][receiver] = rssi_dbm
+    out.floor_t.append(t_s)
+    out.floor_dbm.append(weakest_dbm)
+    return weakest_dbm
 
 
 def _heard(log: _Log, sender: int, t_s: float, receptions: dict[int, float]) -> Heard:

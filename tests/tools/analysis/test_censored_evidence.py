@@ -149,10 +149,11 @@ def test_a_liar_is_given_away_by_the_receivers_that_did_not_hear_it() -> None:
     assert max(honest) < 3.0
 
 
-def _log(path: Path, *, channel: bool) -> Path:
+def _log(path: Path, *, channel: bool, spoofer_hears_dbm: float | None = None) -> Path:
     """Nine receivers at 50 m, the spoofer beyond their corner lying 70 m inward, one
     LOCATION a second heard by those its true position reaches, and the middle receiver's
-    own truthful LOCATION; a fitted channel at 2 s."""
+    own truthful LOCATION; a fitted channel at 2 s. With ``spoofer_hears_dbm``, the
+    spoofer's own radio hears that LOCATION at that RSSI too (it reports to no one)."""
     rng = np.random.default_rng(11)
     receivers = RECEIVERS[[6, 7, 8, 11, 12, 13, 16, 17, 18]]
     spoofer_p = np.array([-230.0, -230.0, 60.0])
@@ -191,6 +192,10 @@ def _log(path: Path, *, channel: bool) -> Path:
                 for r, z in zip([1, 2, 3, 4, 6, 7, 8, 9], rssi, strict=True)
                 if z >= -95.0
             ]
+            if spoofer_hears_dbm is not None:
+                items.append(
+                    {"sender": 5, "receiver": 99, "msg_type": 1, "rssi_dbm": spoofer_hears_dbm}
+                )
             recorder.log(topics.RADIO_RX, t_s, {"items": items})
     return path
 
@@ -209,6 +214,14 @@ def test_the_command_reports_the_crossing_no_earlier_than_the_fit(
     assert "1 runs, tested up to 10 s: delay median / p90 / worst" in printed
     assert "largest honest surprisal on the receptions alone" in printed
     assert str(log) in printed
+
+
+def test_the_cut_is_what_the_fleet_heard_not_the_spoofer_s_own_radio(tmp_path: Path) -> None:
+    """The GCS hears of no reception by the spoofer's radio, so its weakest RSSI sets no
+    cut: a log where the spoofer heard something far weaker gives the same evidence."""
+    plain = run_evidence(_log(tmp_path / "plain.mcap", channel=True), until_s=10.0)
+    heard = _log(tmp_path / "heard.mcap", channel=True, spoofer_hears_dbm=-103.0)
+    assert run_evidence(heard, until_s=10.0) == plain
 
 
 def test_a_log_without_a_fitted_channel_or_a_miss_floor_of_0_is_a_clear_error(
