@@ -10,9 +10,9 @@ receiver's cut and maximises the likelihood exactly: T = 2 (max l(delta, P) - ma
 over a common offset delta and the transmit power, about chi2_3 for an honest claim
 (``censored_kernels.py``), reported as surprisal against -log10 ``p_false_alarm``. On
 exponent 3 at 16 aircraft, measured on logs with the receivers' biases known, it would bring
-the detection delay median from 6.55 s to 5.0 s; in the GCS, on its young fit's biases, it
-alerts sooner in 5 runs of 30 (median 6.5 s; docs/results/robustness.md, "Who did not hear
-it").
+the detection delay median from 6.55 s to 5.0 s; in the GCS, on its young fit (its cut, biases
+and the position term together), it alerts sooner in 5 runs of 30 (median 6.5 s;
+docs/results/robustness.md, "Who did not hear it").
 
 It runs where the calibration estimates the cut (``ObservedClaim.cut_rssi_dbm``,
 ``cut_floor_dbm``: the RSSI and the cut mapped onto the free-space model, the lift not
