@@ -72,6 +72,11 @@ class CensoredLikelihoodDetector:
             deque(maxlen=RING)
         )
 
+    @property
+    def window_claims(self) -> int:
+        """How many claims its window holds (at most ``RING``)."""
+        return len(self._claims)
+
     @classmethod
     def for_transmitter(cls, uas_id: str, cfg: PipelineConfig) -> CensoredLikelihoodDetector | None:
         """The detector of one claimed transmitter; None with ``censored_window_s`` 0."""

@@ -95,7 +95,7 @@ def test_a_transmitter_claiming_fast_holds_at_most_the_ring_of_claims() -> None:
     detector = CensoredLikelihoodDetector("X", CONFIG)
     for k in range(RING + 40):  # all within one second
         detector.observe(_claim(k / 200.0, p, p, rng))
-    assert len(detector._claims) == RING
+    assert detector.window_claims == RING
 
 
 def test_it_is_off_by_default_and_a_negative_window_is_refused() -> None:
