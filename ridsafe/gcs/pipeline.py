@@ -205,6 +205,8 @@ class EstimationPipeline:
         self._waiting: list[tuple[float, ObservedClaim]] = []  # (arrived s, claim)
         # per tracked uas_id: the cycles its last two claims arrived in (s; None: one so far)
         self._track_arrivals: dict[str, tuple[float | None, float]] = {}
+        #: Tracks taken over from a replaced pipeline: the newest claim each had taken.
+        self._taken_until_s: dict[str, float] = {}
         self._last_step_s: float | None = None
         self.compute_s: deque[float] = deque(maxlen=COMPUTE_HISTORY)
 
@@ -216,15 +218,26 @@ class EstimationPipeline:
             warm_up()
             cls._warm = True
 
-    def take_over(self, previous: EstimationPipeline) -> None:
+    def take_over(self, previous: EstimationPipeline, keep_tracks: bool = False) -> None:
         """Continue ``previous``, which this (new, not yet stepped) pipeline replaces on
-        another channel (``calibration/pipeline.py``): its alerts stand (not raised again,
-        their tracks started afresh from the claims this one is given), its track numbers
-        are not reused, and its compute times are kept."""
+        another channel (``calibration/pipeline.py``): its alerts stand (not raised again),
+        its track numbers are not reused, and its compute times are kept. Its tracks start
+        afresh from the claims this one is given, or with ``keep_tracks`` go on here, each
+        given only the claims after the last it took."""
         self._alerts = dict(previous._alerts)
         self._next_track_id = previous._next_track_id
         self._forced_done = previous._forced_done
         self.compute_s.extend(previous.compute_s)
+        if keep_tracks:
+            self._tracks = dict(previous._tracks)
+            self._track_arrivals = dict(previous._track_arrivals)
+            self._taken_until_s = {u: t.last_heard_s for u, t in previous._tracks.items()}
+
+    def _not_yet_taken(self, claim: ObservedClaim) -> bool:
+        """Whether a track taken over from a replaced pipeline has not yet had ``claim``
+        (every claim of any other track is new)."""
+        taken_s = self._taken_until_s.get(claim.uas_id)
+        return taken_s is None or claim.t_s > taken_s
 
     # --- the GcsPipeline protocol ---------------------------------------------------------
 
@@ -241,7 +254,7 @@ class EstimationPipeline:
             self._note_suspicion(claim.uas_id, claim_results)
             changes.extend(self._maybe_raise(claim.uas_id, claim.t_s, claim_results))
             live = self._tracks.get(claim.uas_id)
-            if live is not None:
+            if live is not None and self._not_yet_taken(claim):
                 heard_up = self._for_tracks(claim)
                 if heard_up.n_receivers:
                     live.update(heard_up)

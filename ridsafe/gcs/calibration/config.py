@@ -57,6 +57,12 @@ class CalibrationConfig:
     provisional_min_samples: int = 50
     #: ... and no earlier than this (sim seconds), so several geometries are seen.
     min_time_s: float = 2.0
+    #: At the full warm-up the provisional pipeline's running tracks go on in the new one
+    #: on the full fit's mapping, each track's transmit power shifted by how much its latest
+    #: claim's mapped RSSI moved, and the held claims they already took not given again
+    #: (``pipeline.py``). False: they start again from the held claims. Off by default:
+    #: measured on exponent 3 only (docs/results/robustness.md, session 58).
+    provisional_keeps_tracks: bool = False
     #: A claim is a cooperative aircraft's when it lies within this of one receiver's own
     #: reported position (reported within ``match_age_s`` of the claim), ...
     match_m: float = 10.0

@@ -48,7 +48,13 @@ fit replaces it, the held claims replayed (``EstimationPipeline.take_over``: the
 raised meanwhile stand, their tracks start afresh on the full fit's mapping). A provisional
 pipeline that kept running once it had alerted held its tracks to the young fit's mapping
 (exponent 3, 8 aircraft: containment 0.871 -> 0.782); replaced, 0.860
-(docs/results/robustness.md).
+(docs/results/robustness.md). Started afresh, a track of a transmitter crossing the fleet
+begins where the oldest held claims put it and may trail it (exponent 3, 8 aircraft, seed 6:
+57 m off after the switch where the running track was 33 m off). With
+``calibration.provisional_keeps_tracks`` the running tracks go on instead, moved onto the
+full fit's mapping (``_remap_tracks``): the mapping is linear in the RSSI about the pivot,
+so at a track's receivers it moves the measurements by about the same amount, which its
+transmit power takes; the pivot stays the provisional fit's.
 
 **Antennas are not isotropic** (``calibration.elevation_knots_deg``): a dipole on an
 airframe loses several dB toward steep links, a loss the plain fit can only count as noise,
@@ -90,6 +96,7 @@ from ridsafe.gcs.calibration.config import CalibrationConfig
 from ridsafe.gcs.calibration.cooperative import CooperativeLabeller, claim_links
 from ridsafe.gcs.calibration.review import CalibratedReview
 from ridsafe.gcs.detection.monitor import TransmitterMonitor, observe_batch
+from ridsafe.gcs.localisation.gaussian_sum import GaussianSumLocaliser
 from ridsafe.gcs.pipeline import EstimationPipeline
 from ridsafe.gcs.pipeline_api import (
     FORGET_AFTER_S,
@@ -286,8 +293,13 @@ class CalibratingPipeline:
             self._hold(claims)  # replayed into the pipeline on the full fit
             if self._ready(now_s):
                 replaced, self.provisional = self.inner, False
+                keep = self.config.calibration.provisional_keeps_tracks and bool(replaced.tracks)
+                mapping, pivot_dbm = self.tracks_estimate, self._pivot_dbm
                 self._start_fitted(now_s)
-                self.inner.take_over(replaced)
+                if keep:
+                    self._pivot_dbm = pivot_dbm
+                    self._remap_tracks(replaced, mapping)
+                self.inner.take_over(replaced, keep_tracks=keep)
                 claims, self._held = list(self._held), deque()
         elif self.on_configured_channel and self._may_switch():
             self._hold(claims)  # replayed should a later check reject the configured channel
@@ -341,6 +353,24 @@ class CalibratingPipeline:
         self.inner = EstimationPipeline(
             self._calibrated_config(self.estimate), self.review, self._strangers
         )
+
+    def _remap_tracks(self, replaced: EstimationPipeline, mapping: ChannelEstimate | None) -> None:
+        """Move ``replaced``'s running tracks from ``mapping`` onto the new fit's: each
+        track's power shifts by how much its latest held claim's mapped RSSI moves."""
+        if mapping is None or self.estimate is None:
+            return
+        latest: dict[str, ObservedClaim] = {}
+        for claim in self._held:
+            if claim.n_receivers and claim.uas_id in replaced.tracks:
+                latest[claim.uas_id] = claim
+        for uas_id, claim in latest.items():
+            localiser = replaced.tracks[uas_id].localiser
+            if not isinstance(localiser, GaussianSumLocaliser):
+                continue
+            rx, rssi = claim.rx_sysid, claim.rssi_dbm
+            old = _mapped(rssi - mapping.bias_of(rx), mapping, self._pivot_dbm)
+            new = _mapped(rssi - self.estimate.bias_of(rx), self.estimate, self._pivot_dbm)
+            localiser.shift_power(float(np.mean(new - old)))
 
     def _strangers(self) -> frozenset[str]:
         """The serials the inner pipeline tracks before any alert (``tracks.

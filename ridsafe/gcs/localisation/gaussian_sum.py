@@ -200,6 +200,16 @@ class GaussianSumLocaliser:
     def size(self) -> int:
         return self.state.size
 
+    def shift_power(self, delta_db: float) -> None:
+        """Add ``delta_db`` to every mode's transmit power (the last state element): the
+        measurements' mapping changed by that much at this track's receivers."""
+        modes = []
+        for g in self.state.modes:
+            x = g.x.copy()
+            x[:, -1] += delta_db
+            modes.append(Gaussian(x, g.P))
+        self.state = ImmState(tuple(modes), self.state.mu, self.state.t_s)
+
     # --- update ---------------------------------------------------------------------------
 
     def update(self, claim: ObservedClaim) -> bool:

@@ -135,3 +135,30 @@ def test_a_track_the_full_fit_does_not_start_again_is_reported_ended() -> None:
     assert tracked_s and max(tracked_s) < fitted_s
     deleted_s = [t for t, out, _ in cycles if STRANGER in out.deleted_tracks]
     assert deleted_s == [fitted_s]
+
+
+def test_with_provisional_keeps_tracks_the_liar_s_track_goes_on_through_the_switch() -> None:
+    """The track started on the provisional fit goes on in the full fit's pipeline under its
+    number, and takes each of the liar's claims once: the held claims replayed at the switch
+    are not given to it again."""
+    keep = dataclasses.replace(CALIBRATION, provisional_keeps_tracks=True)
+    config = dataclasses.replace(PipelineConfig(), calibration=keep)
+    pipeline = CalibratingPipeline(config)
+    track_ids: list[tuple[float, int]] = []
+    switch_s = None
+    for k in range(25):
+        was_provisional = pipeline.provisional
+        out = pipeline.step(k + 0.25, _cycle_claims(float(k)))
+        if was_provisional and not pipeline.provisional:
+            switch_s = k + 0.25
+        track_ids += [(k + 0.25, r.track_id) for r in out.regions if r.uas_id == LIAR]
+    assert switch_s is not None
+    before = {n for t, n in track_ids if t < switch_s}
+    after = {n for t, n in track_ids if t >= switch_s}
+    assert before and before == after  # one track, one number
+    assert pipeline.inner is not None
+    track = pipeline.inner.tracks[LIAR]
+    # At most one update per claim from its start on (the start counts as one; claims at
+    # whole seconds, the last at 24 s).
+    assert track.created_s < switch_s - 1.0
+    assert 0 < track.n_updates <= 25 - track.created_s

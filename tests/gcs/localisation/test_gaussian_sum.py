@@ -168,3 +168,16 @@ def test_mixture_kernels_match_numpy() -> None:
             assert m2[a, b] == pytest.approx(
                 float(mahalanobis2(d, g.P[a, :3, :3] + g.P[b, :3, :3]))
             )
+
+
+def test_a_power_shift_moves_every_hypothesis_power_and_nothing_else() -> None:
+    loc = _localiser([_seed(20.0, 0.5), _seed(100.0, 0.5, (50.0, 0.0))])
+    before, mu_before = loc.predicted(1.0)
+    loc.shift_power(-3.5)
+    after, mu_after = loc.predicted(1.0)
+    assert after.x[0, -1] == pytest.approx(before.x[0, -1] - 3.5)
+    np.testing.assert_allclose(after.x[0, :-1], before.x[0, :-1])
+    np.testing.assert_allclose(after.P, before.P)
+    np.testing.assert_allclose(mu_after, mu_before)
+    for mode in loc.state.modes:
+        np.testing.assert_allclose(mode.x[:, -1], 20.0 - 3.5)
