@@ -359,12 +359,13 @@ class CalibratingPipeline:
         track's power shifts by how much its latest held claim's mapped RSSI moves."""
         if mapping is None or self.estimate is None:
             return
+        tracks = replaced.tracks
         latest: dict[str, ObservedClaim] = {}
         for claim in self._held:
-            if claim.n_receivers and claim.uas_id in replaced.tracks:
+            if claim.n_receivers and claim.uas_id in tracks:
                 latest[claim.uas_id] = claim
         for uas_id, claim in latest.items():
-            localiser = replaced.tracks[uas_id].localiser
+            localiser = tracks[uas_id].localiser
             if not isinstance(localiser, GaussianSumLocaliser):
                 continue
             rx, rssi = claim.rx_sysid, claim.rssi_dbm
