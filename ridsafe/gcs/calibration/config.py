@@ -60,7 +60,8 @@ class CalibrationConfig:
     #: At the full warm-up the provisional pipeline's running tracks go on in the new one
     #: on the full fit's mapping, each track's transmit power shifted by how much its latest
     #: claim's mapped RSSI moved, and the held claims they already took not given again
-    #: (``pipeline.py``). False: they start again from the held claims. Off by default:
+    #: (``pipeline.py``; estimator ``rssi_imm`` only: other estimators' tracks start again).
+    #: False: they start again from the held claims. Off by default:
     #: measured on exponent 3 only (docs/results/robustness.md, session 58).
     provisional_keeps_tracks: bool = False
     #: A claim is a cooperative aircraft's when it lies within this of one receiver's own

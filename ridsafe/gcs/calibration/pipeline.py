@@ -293,7 +293,7 @@ class CalibratingPipeline:
             self._hold(claims)  # replayed into the pipeline on the full fit
             if self._ready(now_s):
                 replaced, self.provisional = self.inner, False
-                keep = self.config.calibration.provisional_keeps_tracks and bool(replaced.tracks)
+                keep = self.config.calibration.provisional_keeps_tracks and _remappable(replaced)
                 mapping, pivot_dbm = self.tracks_estimate, self._pivot_dbm
                 self._start_fitted(now_s)
                 if keep:
@@ -366,8 +366,7 @@ class CalibratingPipeline:
                 latest[claim.uas_id] = claim
         for uas_id, claim in latest.items():
             localiser = tracks[uas_id].localiser
-            if not isinstance(localiser, GaussianSumLocaliser):
-                continue
+            assert isinstance(localiser, GaussianSumLocaliser)  # _remappable
             rx, rssi = claim.rx_sysid, claim.rssi_dbm
             old = _mapped(rssi - mapping.bias_of(rx), mapping, self._pivot_dbm)
             new = _mapped(rssi - self.estimate.bias_of(rx), self.estimate, self._pivot_dbm)
@@ -530,6 +529,13 @@ class CalibratingPipeline:
         return dataclasses.replace(
             self.config, rssi_sigma_db=tested, localisation_noise_inflation=variance_ratio
         )
+
+
+def _remappable(pipeline: EstimationPipeline) -> bool:
+    """Whether ``pipeline`` runs tracks and each can take a changed mapping
+    (``GaussianSumLocaliser.shift_power``); otherwise they start again at the switch."""
+    tracks = pipeline.tracks.values()
+    return bool(tracks) and all(isinstance(t.localiser, GaussianSumLocaliser) for t in tracks)
 
 
 class _TrackNoise:
