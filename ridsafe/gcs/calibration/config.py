@@ -61,8 +61,9 @@ class CalibrationConfig:
     #: on the full fit's mapping, each track's transmit power shifted by how much its latest
     #: claim's mapped RSSI moved, and the held claims they already took not given again
     #: (``pipeline.py``; estimator ``rssi_imm`` only: other estimators' tracks start again).
-    #: False: they start again from the held claims. Off by default:
-    #: measured on exponent 3 only (docs/results/robustness.md, session 58).
+    #: False: they start again from the held claims. Off by default: over the robustness
+    #: sweep it meets exponent 3's bars at 8 aircraft but keeps tracks the provisional fit
+    #: placed wrong on the urban preset (docs/results/robustness.md, session 59).
     provisional_keeps_tracks: bool = False
     #: A claim is a cooperative aircraft's when it lies within this of one receiver's own
     #: reported position (reported within ``match_age_s`` of the claim), ...
