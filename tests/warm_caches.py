@@ -79,10 +79,10 @@ def warm_mypy() -> None:
 
 
 def main(argv: list[str]) -> None:
-    os.nice(19)  # the session's tests first: this takes only the CPU they leave
     which = set(argv) or {"numba", "mypy"}
     if unknown := which - {"numba", "mypy"}:
         raise SystemExit(f"warm_caches: unknown cache(s) {sorted(unknown)}; numba or mypy")
+    os.nice(19)  # the session's tests first: this takes only the CPU they leave
     if "numba" in which:
         warm_numba()
     if "mypy" in which:
