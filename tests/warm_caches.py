@@ -29,7 +29,7 @@ from ridsafe.common.pathloss import received_power_dbm
 from ridsafe.companion.planner import AwarePlanner
 from ridsafe.companion.planner_config import PlannerConfig
 from ridsafe.gcs.detection.censored import CensoredLikelihoodDetector
-from ridsafe.gcs.pipeline import warm_up as warm_up_gcs
+from ridsafe.gcs.pipeline import EstimationPipeline
 from ridsafe.gcs.pipeline_api import ObservedClaim
 from ridsafe.gcs.pipeline_config import DetectionConfig, PipelineConfig
 from ridsafe.tools.run.lockstep import warm_up as warm_up_run
@@ -66,7 +66,7 @@ def _warm_censored_detector() -> None:
 def warm_numba() -> None:
     """Load or compile every kernel a run of the default scenario and of the robustness
     sweep's calls, and the off-by-default detector's."""
-    warm_up_gcs()
+    EstimationPipeline.ensure_warm()  # once per process: the builds below skip it
     AwarePlanner(PlannerConfig(), "warm-up").warm_up()
     _warm_censored_detector()
     for config in (None, ROOT / "configs" / "robustness.yaml"):
